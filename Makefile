@@ -1,0 +1,30 @@
+# demcal: `make demo` runs the main job on the embedded defaults, `make test` the suite.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-stamp
+export NUMBA_CACHE_DIR ?= $(CURDIR)/.venv/numba-cache
+
+.PHONY: demo test test-slow bench clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/demcal demo --out demo-output
+
+test: $(STAMP)
+	$(PY) -m pytest -q -m "not slow" -p no:cacheprovider
+
+test-slow: $(STAMP)
+	$(PY) -m pytest -q -m slow -p no:cacheprovider
+
+bench: $(STAMP)
+	$(PY) benchmarks/throughput.py --particles 5000 --threads 1
+	$(PY) benchmarks/throughput.py --particles 5000 --threads 2
+
+clean:
+	rm -rf $(VENV) demo-output build dist src/*.egg-info

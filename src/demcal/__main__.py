@@ -1,0 +1,5 @@
+import sys
+
+from demcal.cli import main
+
+sys.exit(main())

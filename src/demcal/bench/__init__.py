@@ -1,0 +1,1 @@
+"""Virtual bench tests (angle of repose, inclined plane, impact)."""

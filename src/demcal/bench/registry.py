@@ -1,0 +1,153 @@
+"""Registry of virtual bench tests.
+
+A virtual experiment is a pure function of (settings, seed): it builds a simulation
+from its settings, runs it and measures it. The campaign runner maps
+:meth:`Experiment.run` over design points, so everything it needs travels in its
+arguments and its result is plain data.
+
+Settings are one flat namespace of dotted keys with SI units, e.g.
+``particle.restitution`` [-], ``particle.static_friction`` [-],
+``particle.rolling_friction`` [-], ``particle.damping_factor`` [-],
+``film.static_friction`` [-], ``geometry.scale`` [-], ``particles.count`` [-].
+The same keys are the ``--set KEY=VALUE`` options of ``demcal bench`` and the
+parameter paths of a campaign's factors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Protocol
+
+from demcal.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Setting:
+    """One overridable setting of a virtual experiment."""
+
+    key: str
+    default: float | int | str
+    unit: str = "-"
+    help: str = ""
+    low: float | None = None  #: smallest allowed value (inclusive), if any
+    high: float | None = None  #: largest allowed value (inclusive), if any
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What one virtual experiment returns: responses and run statistics."""
+
+    test: str
+    responses: dict[str, float]
+    spread: dict[str, float] = field(default_factory=dict)
+    particles: int = 0
+    steps: int = 0
+    simulated_s: float = 0.0
+    wall_s: float = 0.0
+    artifacts: dict[str, str] = field(default_factory=dict)  #: name -> file path
+
+    @property
+    def particle_steps_per_s(self) -> float:
+        return self.particles * self.steps / self.wall_s if self.wall_s > 0 else 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "test": self.test,
+            "responses": dict(self.responses),
+            "spread": dict(self.spread),
+            "particles": self.particles,
+            "steps": self.steps,
+            "simulated_s": self.simulated_s,
+            "wall_s": self.wall_s,
+            "particle_steps_per_s": self.particle_steps_per_s,
+            "artifacts": dict(self.artifacts),
+        }
+
+
+class Experiment(Protocol):
+    """A virtual bench test."""
+
+    name: str
+    description: str
+    responses: tuple[str, ...]
+    profiles: tuple[str, ...]
+
+    def settings(self, profile: str = "quick") -> dict[str, Setting]:
+        """Every overridable setting with its default under ``profile``."""
+
+    def run(
+        self,
+        settings: Mapping[str, Any] | None = None,
+        seed: int = 0,
+        profile: str = "quick",
+        out_dir: str | Path | None = None,
+        vtk: bool = False,
+        progress: bool = False,
+    ) -> RunResult:
+        """Simulate and measure; artifacts (PNG, VTK) go to ``out_dir`` if given."""
+
+
+_REGISTRY: dict[str, Experiment] = {}
+
+
+def register(experiment: Experiment) -> Experiment:
+    _REGISTRY[experiment.name] = experiment
+    return experiment
+
+
+def names() -> list[str]:
+    _load_builtin()
+    return sorted(_REGISTRY)
+
+
+def get_experiment(name: str) -> Experiment:
+    _load_builtin()
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        known = ", ".join(sorted(_REGISTRY)) or "none"
+        raise ConfigError(f"unknown virtual test '{name}'; choose one of: {known}.") from None
+
+
+def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None,
+                     profile: str = "quick") -> dict[str, Any]:
+    """Defaults of ``profile`` updated by ``overrides``, each key and range checked."""
+    if profile not in experiment.profiles:
+        raise ConfigError(
+            f"unknown profile '{profile}' for {experiment.name}; choose one of: "
+            f"{', '.join(experiment.profiles)}."
+        )
+    table = experiment.settings(profile)
+    resolved = {key: s.default for key, s in table.items()}
+    for key, value in (overrides or {}).items():
+        if key not in table:
+            raise ConfigError(
+                f"unknown setting '{key}' for {experiment.name}; "
+                f"`demcal bench {experiment.name} --help` lists them."
+            )
+        spec = table[key]
+        if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool):
+            try:
+                value = type(spec.default)(value) if isinstance(spec.default, int) and float(value).is_integer() else float(value)
+            except (TypeError, ValueError):
+                raise ConfigError(f"setting '{key}' must be a number, got '{value}'.") from None
+            if spec.low is not None and value < spec.low or spec.high is not None and value > spec.high:
+                raise ConfigError(
+                    f"setting '{key}' = {value} is outside its allowed range "
+                    f"[{spec.low}, {spec.high}] {spec.unit}."
+                )
+        resolved[key] = value
+    return resolved
+
+
+def _load_builtin() -> None:
+    """Import the built-in experiments so that they register themselves."""
+    import importlib
+
+    for module in ("demcal.bench.repose", "demcal.bench.incline", "demcal.bench.impact"):
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if not (exc.name and module.startswith(exc.name)):
+                raise
