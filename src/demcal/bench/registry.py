@@ -32,6 +32,7 @@ class Setting:
     help: str = ""
     low: float | None = None  #: smallest allowed value (inclusive), if any
     high: float | None = None  #: largest allowed value (inclusive), if any
+    choices: tuple[str, ...] = ()  #: allowed values of a text setting, if restricted
 
 
 @dataclass(frozen=True)
@@ -137,6 +138,10 @@ def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None
                     f"setting '{key}' = {value} is outside its allowed range "
                     f"[{spec.low}, {spec.high}] {spec.unit}."
                 )
+        elif spec.choices and str(value) not in spec.choices:
+            raise ConfigError(
+                f"setting '{key}' = '{value}' is not one of: {', '.join(spec.choices)}."
+            )
         resolved[key] = value
     return resolved
 

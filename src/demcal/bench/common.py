@@ -1,0 +1,394 @@
+"""What the virtual bench tests share: settings tables, materials, the run loop.
+
+Settings
+--------
+Every test reads one flat table of dotted keys (:class:`~demcal.bench.registry.Setting`,
+SI units). The keys that describe the material are the same in every test, so a
+campaign factor such as ``particle.static_friction`` means the same thing everywhere:
+
+=============================  ===========  ==============================================
+key                            default      source
+=============================  ===========  ==============================================
+``particle.density``           1687.85      paper Table 2 [kg/m3]
+``particle.shear_modulus``     1e6          paper Table 2 [Pa]
+``particle.poisson_ratio``     0.46         paper Table 2 [-]
+``particle.yield_strength``    1e6          our choice (the paper gives none) [Pa]
+``particle.restitution``       0.6          paper Table 3 centre point (e, factor A)
+``particle.static_friction``   0.4          paper Table 3 centre point (mu, factor B)
+``particle.rolling_friction``  0.2          paper Table 3 centre point (gamma, factor C)
+``particle.damping_factor``    0.1          paper Table 3 centre point (zeta, factor D)
+``particle.stiffness_factor``  0.95         paper Table 2 (xi)
+``film.restitution``           0.6          paper Table 7 centre point (e', factor E)
+``film.static_friction``       0.5          paper Table 7 centre point (mu', factor F)
+``film.rolling_friction``      0.15         paper Table 7 centre point (gamma', factor G)
+``wall.*``                     see below    our choice (the paper gives none)
+=============================  ===========  ==============================================
+
+Yield strength. The Hysteretic Spring model's loading stiffness is
+``K1 = 5 R* min(Y_i, Y_j)`` (paper Eq. 2; Walton & Braun 1986). The paper gives no
+yield strength; we use 1 MPa, the value :data:`demcal.particles.materials.SOIL_YIELD_STRENGTH`
+uses, equal to the paper's shear modulus. With it a particle at the bottom of a 10-layer
+heap overlaps its neighbours by well under 1 % of its radius, and the contact lasts long
+enough for a practical time step.
+
+Walls (funnel, base plate, lifted cylinder) are steel (:func:`demcal.particles.materials.steel`);
+the particle-steel interaction is ``wall.restitution`` 0.5, ``wall.static_friction`` 0.5,
+``wall.rolling_friction`` 0.1, ``wall.damping_factor`` 0.1 -- common values for soil on
+steel in the calibration literature, not from the paper. The agricultural film is a
+material of its own (polyethylene: density 920 kg/m3, shear modulus 1e8 Pa, Poisson ratio
+0.4, yield strength 1e7 Pa; ``film.*`` keys); with the Hysteretic Spring model the softer
+particle sets the stiffness (``min(Y_i, Y_j)``), so the film's bulk values barely matter.
+
+Time step. ``time.step_fraction`` is the step as a fraction of the shortest contact
+duration ``t_c`` (smallest particle, stiffest branch; :mod:`demcal.dem.timestep`), and
+never more than 0.2 of the Rayleigh time. The engine's automatic step is ``0.1 t_c``
+(ten steps per contact); the engine refuses more than ``0.2 t_c``.
+
+Profiles. ``tiny`` (a few hundred particles: seconds, for tests of the campaign
+machinery), ``quick`` (about a thousand: well under two minutes on two cores, for demos
+and the example campaigns) and ``paper`` (the paper's scale) differ only in their
+defaults; every setting can be overridden in every profile.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from demcal.bench.registry import RunResult, Setting, resolve_settings
+from demcal.errors import ConfigError, SimulationError
+from demcal.geometry.motion import Motion
+
+PROFILES = ("tiny", "quick", "paper")
+CONTACT_MODELS = ("hysteretic_spring", "hertz_mindlin", "linear")
+ROLLING_MODELS = ("type_a", "cdt", "type_c", "none")
+SHAPES = ("two-sphere", "sphere")
+
+#: Gravitational acceleration [m/s2].
+G = 9.81
+
+
+def per_profile(profile: str, tiny, quick, paper):
+    """Pick a default by profile."""
+    return {"tiny": tiny, "quick": quick, "paper": paper}[profile]
+
+
+def material_settings(film: bool = False) -> list[Setting]:
+    """The particle (and, for the incline, film) material and interaction keys."""
+    s = [
+        Setting("particle.density", 1687.85, "kg/m3", "particle density (paper Table 2)", 100.0, 20000.0),
+        Setting("particle.shear_modulus", 1.0e6, "Pa", "particle shear modulus G (paper Table 2)", 1.0e4, 1.0e11),
+        Setting("particle.poisson_ratio", 0.46, "-", "particle Poisson ratio (paper Table 2)", 0.0, 0.499),
+        Setting("particle.yield_strength", 1.0e6, "Pa",
+                "particle yield strength Y for the Hysteretic Spring model, K1 = 5 R* Y "
+                "(our choice; the paper gives none)", 1.0e3, 1.0e10),
+        Setting("particle.restitution", 0.6, "-", "particle-particle coefficient of restitution e "
+                "(paper Table 3 centre)", 0.01, 1.0),
+        Setting("particle.static_friction", 0.4, "-", "particle-particle static friction mu "
+                "(paper Table 3 centre)", 0.0, 2.0),
+        Setting("particle.rolling_friction", 0.2, "-", "particle-particle rolling ('dynamic') "
+                "friction gamma (paper Table 3 centre)", 0.0, 1.0),
+        Setting("particle.damping_factor", 0.1, "-", "Hysteretic Spring damping factor zeta "
+                "(paper Table 3 centre)", 0.0, 2.0),
+        Setting("particle.stiffness_factor", 0.95, "-", "Hysteretic Spring stiffness factor xi, "
+                "k_t = xi K1 (paper Table 2)", 0.01, 10.0),
+        Setting("wall.restitution", 0.5, "-", "particle-steel restitution (our choice)", 0.01, 1.0),
+        Setting("wall.static_friction", 0.5, "-", "particle-steel static friction (our choice)", 0.0, 2.0),
+        Setting("wall.rolling_friction", 0.1, "-", "particle-steel rolling friction (our choice)", 0.0, 1.0),
+        Setting("wall.damping_factor", 0.1, "-", "particle-steel damping factor (our choice)", 0.0, 2.0),
+        Setting("contact.model", "hysteretic_spring", "-", "contact model", choices=CONTACT_MODELS),
+        Setting("rolling.model", "type_a", "-", "rolling resistance model", choices=ROLLING_MODELS),
+    ]
+    if film:
+        s += [
+            Setting("film.restitution", 0.6, "-", "particle-film restitution e' (paper Table 7 centre)", 0.01, 1.0),
+            Setting("film.static_friction", 0.5, "-", "particle-film static friction mu' "
+                    "(paper Table 7 centre)", 0.0, 2.0),
+            Setting("film.rolling_friction", 0.15, "-", "particle-film rolling friction gamma' "
+                    "(paper Table 7 centre)", 0.0, 1.0),
+            Setting("film.damping_factor", 0.1, "-", "particle-film damping factor (our choice)", 0.0, 2.0),
+            Setting("film.stiffness_factor", 0.95, "-", "particle-film stiffness factor (as Table 2)", 0.01, 10.0),
+            Setting("film.density", 920.0, "kg/m3", "film density (polyethylene)", 100.0, 20000.0),
+            Setting("film.shear_modulus", 1.0e8, "Pa", "film shear modulus (polyethylene)", 1.0e4, 1.0e11),
+            Setting("film.poisson_ratio", 0.4, "-", "film Poisson ratio (polyethylene)", 0.0, 0.499),
+            Setting("film.yield_strength", 1.0e7, "Pa", "film yield strength (polyethylene)", 1.0e3, 1.0e10),
+        ]
+    return s
+
+
+def particle_settings(profile: str, count: int) -> list[Setting]:
+    """Particle population keys."""
+    return [
+        Setting("particles.count", count, "-", "number of particles", 1, 1_000_000),
+        Setting("particles.shape", "two-sphere", "-",
+                "particle shape: the paper's 4 mm + 5 mm two-sphere unit, or a 4.5 mm sphere",
+                choices=SHAPES),
+        Setting("particles.scale_min", 0.5, "-", "smallest size factor (paper: 0.5)", 0.05, 10.0),
+        Setting("particles.scale_max", 1.5, "-", "largest size factor (paper: 1.5)", 0.05, 10.0),
+    ]
+
+
+def time_settings(profile: str, step_fraction: float, max_time: float,
+                  rest_speed: float = 0.005) -> list[Setting]:
+    return [
+        Setting("time.step_fraction", step_fraction, "-",
+                "time step as a fraction of the shortest contact duration (engine refuses > 0.2)",
+                0.001, 0.2),
+        Setting("time.max_time", max_time, "s", "give up after this much simulated time", 0.01, 1000.0),
+        Setting("time.rest_speed", rest_speed, "m/s",
+                "at rest when the root-mean-square particle speed sqrt(2 KE / M) is below this",
+                1e-6, 1.0),
+    ]
+
+
+def table(settings: list[Setting]) -> dict[str, Setting]:
+    return {s.key: s for s in settings}
+
+
+# --------------------------------------------------------------------------- materials --
+
+def template_for(s: Mapping[str, Any]):
+    """The particle template at scale 1 (the engine scales it per particle)."""
+    from demcal.particles.templates import sphere, two_sphere_paper
+
+    if s["particles.shape"] == "sphere":
+        return sphere(0.0045, name="sphere")
+    return two_sphere_paper()
+
+
+def sizes_for(s: Mapping[str, Any]):
+    from demcal.particles.sizes import Uniform
+
+    lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
+    if hi < lo:
+        raise ConfigError(f"particles.scale_max ({hi}) must be >= particles.scale_min ({lo}).")
+    return Uniform(lo, hi)
+
+
+def mean_cube(lo: float, hi: float) -> float:
+    """E[s^3] of s uniform in [lo, hi]."""
+    return lo ** 3 if hi == lo else (hi ** 4 - lo ** 4) / (4.0 * (hi - lo))
+
+
+def particle_material(s: Mapping[str, Any]):
+    from demcal.particles.materials import Material
+
+    return Material(density=s["particle.density"], shear_modulus=s["particle.shear_modulus"],
+                    poisson_ratio=s["particle.poisson_ratio"],
+                    yield_strength=s["particle.yield_strength"], name="particle")
+
+
+def interaction(s: Mapping[str, Any], prefix: str, stiffness_key: str | None = None):
+    """The Interaction of ``prefix`` (``particle``, ``wall``, ``film``) from settings."""
+    from demcal.particles.materials import Interaction
+
+    xi = s.get(f"{prefix}.stiffness_factor", s["particle.stiffness_factor"])
+    return Interaction(restitution=s[f"{prefix}.restitution"],
+                       static_friction=s[f"{prefix}.static_friction"],
+                       rolling_friction=s[f"{prefix}.rolling_friction"],
+                       damping_factor=s[f"{prefix}.damping_factor"],
+                       stiffness_factor=xi)
+
+
+def count_of(s: Mapping[str, Any]) -> int:
+    n = s["particles.count"]
+    if float(n) != int(n):
+        raise ConfigError(f"particles.count must be a whole number, got {n}.")
+    return int(n)
+
+
+# ------------------------------------------------------------------------- simulation --
+
+def time_step(s: Mapping[str, Any], materials, interactions, walls, template, smallest_scale: float,
+              fraction: float | None = None) -> float:
+    """The step [s]: ``time.step_fraction`` of the shortest contact duration of the
+    smallest particle (``template`` at ``smallest_scale``, material 0) with particles
+    and with ``walls``, and at most 0.2 Rayleigh times (:mod:`demcal.dem.timestep`).
+    """
+    from demcal.dem import Simulation
+
+    probe = Simulation(materials, interactions, walls=walls, contact_model=s["contact.model"],
+                       rolling_model=s["rolling.model"])
+    probe.add_particles(template, [[0.0, 0.0, 0.0]], scales=[smallest_scale])
+    t_r, t_c = probe.time_scales()
+    f = float(s["time.step_fraction"] if fraction is None else fraction)
+    return min(f * t_c, 0.2 * t_r) * (1.0 - 1e-9)
+
+
+def make_simulation(s: Mapping[str, Any], materials, interactions, walls, dt: float,
+                    gravity=(0.0, 0.0, -G), domain=None):
+    """A Simulation with the settings' contact and rolling models and step ``dt`` [s]."""
+    from demcal.dem import Simulation
+
+    return Simulation(materials, interactions, walls=walls, gravity=gravity, dt=dt,
+                      contact_model=s["contact.model"], rolling_model=s["rolling.model"],
+                      domain=domain)
+
+
+@dataclass
+class Progress:
+    """Prints one line per call when enabled (``demcal bench`` without ``--json``)."""
+
+    enabled: bool = False
+    start: float = 0.0
+
+    def __post_init__(self):
+        self.start = time.perf_counter()
+
+    def __call__(self, text: str) -> None:
+        if self.enabled:
+            import sys
+
+            print(f"  [{time.perf_counter() - self.start:6.1f} s] {text}", file=sys.stderr, flush=True)
+
+
+class VtkWriter:
+    """Writes a frame every ``interval`` [s] of simulated time when enabled."""
+
+    def __init__(self, out_dir, enabled: bool, interval: float, walls=None, name: str = "bench"):
+        self.enabled = bool(enabled and out_dir is not None)
+        self.interval = interval
+        self.next_time = 0.0
+        self.walls = walls
+        self.series = None
+        if self.enabled:
+            from demcal.io.vtk import VtkSeries
+
+            folder = Path(out_dir, "vtk")
+            folder.mkdir(parents=True, exist_ok=True)
+            self.series = VtkSeries(folder, name=name)
+
+    def __call__(self, sim, force: bool = False) -> None:
+        if not self.enabled or (sim.time + 1e-12 < self.next_time and not force):
+            return
+        st = sim.state
+        if st.radii.size:
+            self.series.write(sim.time, st.sphere_positions.copy(), walls=self.walls,
+                              radius=st.radii.copy(), body_ids=st.sphere_body.copy())
+        self.next_time = sim.time + self.interval
+
+    @property
+    def path(self):
+        return str(self.series.pvd_path) if self.enabled and self.series.frames else None
+
+
+def rms_speed(sim) -> float:
+    """sqrt(2 KE / M) of the free particles [m/s] (KE includes rotation)."""
+    st = sim.state
+    free = ~st.fixed
+    m = float(st.masses[free].sum())
+    return math.sqrt(2.0 * sim.kinetic_energy() / m) if m > 0 else 0.0
+
+
+def check_finite(sim, what: str) -> None:
+    st = sim.state
+    if not np.all(np.isfinite(st.positions)) or not np.all(np.isfinite(st.velocities)):
+        raise SimulationError(
+            f"the {what} simulation blew up at t = {sim.time:.3g} s (non-finite positions); "
+            "lower time.step_fraction.")
+
+
+class BenchExperiment:
+    """Base of the built-in virtual tests: a settings table per profile and a timed run.
+
+    Subclasses set ``name``, ``description``, ``responses`` and implement
+    :meth:`_settings` (the table for a profile) and :meth:`_run` (resolved settings,
+    seed, out_dir, vtk, progress -> dict with ``responses``, ``spread``, ``particles``,
+    ``steps``, ``simulated_s``, ``artifacts``).
+    """
+
+    name = ""
+    description = ""
+    responses: tuple[str, ...] = ()
+    profiles: tuple[str, ...] = PROFILES
+
+    def settings(self, profile: str = "quick") -> dict[str, Setting]:
+        if profile not in self.profiles:
+            raise ConfigError(f"unknown profile '{profile}' for {self.name}; choose one of: "
+                              f"{', '.join(self.profiles)}.")
+        return table(self._settings(profile))
+
+    def _settings(self, profile: str) -> list[Setting]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def resolve(self, settings: Mapping[str, Any] | None, profile: str) -> dict[str, Any]:
+        return resolve_settings(self, settings, profile)
+
+    def run(self, settings: Mapping[str, Any] | None = None, seed: int = 0, profile: str = "quick",
+            out_dir: str | Path | None = None, vtk: bool = False, progress: bool = False) -> RunResult:
+        """Simulate and measure; artifacts (PNG, VTK) go to ``out_dir`` if given."""
+        s = self.resolve(settings, profile)
+        if out_dir is not None:
+            Path(out_dir).mkdir(parents=True, exist_ok=True)
+        start = time.perf_counter()
+        out = self._run(s, int(seed), out_dir, bool(vtk), Progress(bool(progress)))
+        return RunResult(test=self.name, responses=out["responses"], spread=out.get("spread", {}),
+                         particles=int(out.get("particles", 0)), steps=int(out.get("steps", 0)),
+                         simulated_s=float(out.get("simulated_s", 0.0)),
+                         wall_s=time.perf_counter() - start, artifacts=out.get("artifacts", {}))
+
+    def _run(self, s, seed, out_dir, vtk, progress) -> dict:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+
+def run_until(sim, chunk: float, stop: Callable[[], bool], max_time: float,
+              each: Callable[[], None] | None = None) -> bool:
+    """Advance in ``chunk`` [s] pieces until ``stop()`` or ``sim.time >= max_time``.
+
+    ``each()`` runs after every chunk (insertion, controllers, VTK). Returns whether
+    ``stop()`` became true.
+    """
+    steps = max(1, int(round(chunk / sim.dt)))
+    while sim.time < max_time:
+        sim.run(steps=steps)
+        if each is not None:
+            each()
+        if stop():
+            return True
+    return False
+
+
+class DrivenTranslation(Motion):
+    """A wall translation whose velocity the experiment sets while it runs.
+
+    Position ``offset + velocity (t - t0)``; :meth:`set_velocity` starts a new linear
+    piece at time ``t`` (continuous position), :meth:`move_to` jumps (used to take a
+    wall away).
+    """
+
+    moving = True
+
+    def __init__(self):
+        self.offset = np.zeros(3)
+        self.velocity = np.zeros(3)
+        self.t0 = 0.0
+
+    def position(self, t: float) -> np.ndarray:
+        return self.offset + self.velocity * (t - self.t0)
+
+    def set_velocity(self, t: float, velocity) -> None:
+        self.offset = self.position(t)
+        self.t0 = float(t)
+        self.velocity = np.asarray(velocity, dtype=float).reshape(3).copy()
+
+    def move_to(self, t: float, offset) -> None:
+        self.offset = np.asarray(offset, dtype=float).reshape(3).copy()
+        self.velocity = np.zeros(3)
+        self.t0 = float(t)
+
+    def transform(self, t):
+        return np.eye(3), self.position(t)
+
+    def twist(self, t):
+        return np.zeros(3), self.velocity.copy()
+
+    def velocity_at(self, t, x):
+        return self.velocity.copy()
+
+    def pose(self, t, x_ref):
+        return np.asarray(x_ref, dtype=float) + self.position(t)

@@ -1,0 +1,376 @@
+"""Angle of repose: the funnel (injection) method and the lifted cylinder.
+
+repose-funnel (the paper's method, IJABE 2020 Section 2.2, Fig. 4b)
+--------------------------------------------------------------------
+Particles are generated at a rate in a cylindrical region above a conical funnel; they
+fall into it, flow out of its outlet onto a round steel base plate and build a heap.
+The run ends when every particle has been generated, the funnel is empty and the heap is
+at rest: the root-mean-square particle speed ``sqrt(2 KE / M)`` (KE with rotation) stays
+below ``time.rest_speed`` at two checks 0.02 s apart. Particles that roll off the plate
+fall out of the domain and are removed. The heap is then measured by
+:func:`demcal.measure.heap.measure_heap`: the silhouette seen from ``measure.views``
+directions, a least-squares line on each flank between ``measure.band_low`` and
+``measure.band_high`` of the heap height, averaged over flanks and views (the response
+``repose_angle_deg``; its spread over the flanks in ``spread``), with ``atan(2H/D)`` and
+the centre-of-mass cone ``atan(4 z_com / R)`` alongside. A picture of the silhouette with
+the fitted lines is written to ``out_dir/heap.png``.
+
+Geometry. The paper scales its test platform 4x because its particles are large
+(Section 2.2) but gives no dimensions. Our instrument, at scale 1 (lab size): a base
+plate 250 mm across; a funnel with a 25 mm outlet, a 100 mm rim and a 50 mm high cone
+(wall 53 deg from horizontal); the outlet ``geometry.outlet_height`` above the plate.
+Every length is multiplied by ``geometry.scale`` (default 4, as in the paper); the
+particles are not scaled (they are the paper's 4 mm + 5 mm two-sphere unit with size
+factors ``particles.scale_min``-``particles.scale_max``). Before running, the geometry is
+checked against the particle count: a heap of ``particles.count`` particles at 20 deg must
+fit on the plate and one at 50 deg must stay below the outlet; the outlet must be at
+least three of the largest particles wide.
+
+Profiles: ``tiny`` 250 particles, ``quick`` 1000, ``paper`` 20 000 -- the paper's 500 g
+sample with the platform scaled 4x in every direction (500 g x 4^3 = 32 kg of particles
+of 1.62 g on average).
+
+repose-cylinder
+---------------
+A steel cylinder (``geometry.cylinder_diameter`` x scale) standing on the plate is filled
+by random insertion, the particles settle (rest criterion as above), the cylinder lifts
+at ``geometry.lift_speed`` until it clears the particles, and the heap comes to rest; it
+is measured as above.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from demcal.bench import common as C
+from demcal.bench.registry import Setting, register
+from demcal.errors import ConfigError, DemcalError, SimulationError
+
+#: Bulk solids fraction assumed for the pre-run size checks.
+HEAP_SOLIDS = 0.55
+
+
+def _measure_settings() -> list[Setting]:
+    return [
+        Setting("measure.views", 8, "-", "view directions around the heap axis (over 180 deg)", 1, 64),
+        Setting("measure.band_low", 0.1, "-", "lower end of the flank fit, fraction of heap height", 0.0, 0.9),
+        Setting("measure.band_high", 0.9, "-", "upper end of the flank fit, fraction of heap height", 0.1, 1.0),
+    ]
+
+
+def _materials(s):
+    from demcal.particles.materials import steel
+
+    mats = [C.particle_material(s), steel()]
+    inter = {(0, 0): C.interaction(s, "particle"), (0, 1): C.interaction(s, "wall"),
+             (1, 1): C.interaction(s, "wall")}
+    return mats, inter
+
+
+def _heap_volume(s, template) -> float:
+    """Bulk volume [m3] of the particles at :data:`HEAP_SOLIDS`."""
+    n = C.count_of(s)
+    lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
+    return n * template.volume * C.mean_cube(lo, hi) / HEAP_SOLIDS
+
+
+def _cone_radius(volume: float, angle_deg: float) -> float:
+    """Base radius [m] of a cone of ``volume`` with flank angle ``angle_deg``."""
+    return (3.0 * volume / (math.pi * math.tan(math.radians(angle_deg)))) ** (1.0 / 3.0)
+
+
+def _bounding_radius(template) -> float:
+    return float(getattr(template, "bounding_radius", np.max(template.radii)))
+
+
+def _measure(sim, s, plate_radius, out_dir, title):
+    """Measure the heap; write heap.png and heap.json to ``out_dir``."""
+    from demcal.measure.heap import measure_heap
+
+    st = sim.state
+    png = Path(out_dir, "heap.png") if out_dir is not None else None
+    lo, hi = float(s["measure.band_low"]), float(s["measure.band_high"])
+    if hi <= lo:
+        raise ConfigError(f"measure.band_high ({hi}) must exceed measure.band_low ({lo}).")
+    try:
+        m = measure_heap(st.sphere_positions.copy(), st.radii.copy(), base_z=0.0, axis_xy=(0.0, 0.0),
+                         views=int(s["measure.views"]), band=(lo, hi), plate_radius=plate_radius,
+                         png=png, title=title)
+    except DemcalError as exc:
+        raise SimulationError(f"the heap could not be measured: {exc}") from None
+    artifacts = {}
+    if png is not None:
+        artifacts["heap_png"] = str(png)
+        path = Path(out_dir, "heap.json")
+        path.write_text(json.dumps(m.to_dict(), indent=1))
+        artifacts["heap_json"] = str(path)
+    responses = {
+        "repose_angle_deg": m.angle_deg,
+        "repose_angle_hd_deg": m.h_over_d_angle_deg,
+        "repose_angle_com_deg": m.com_cone_angle_deg,
+        "heap_fit_r2": m.r2,
+        "heap_height_mm": m.height * 1e3,
+        "heap_diameter_mm": m.diameter * 1e3,
+        "heap_particles": float(m.n_particles),
+    }
+    return responses, {"repose_angle_deg": m.spread_deg}, artifacts
+
+
+class _Settle:
+    """The kinetic-energy rest criterion: rms speed below the limit at two checks."""
+
+    def __init__(self, sim, limit):
+        self.sim, self.limit, self.hits = sim, limit, 0
+
+    def __call__(self, extra_ok=True) -> bool:
+        v = C.rms_speed(self.sim)
+        self.hits = self.hits + 1 if (extra_ok and v < self.limit) else 0
+        return self.hits >= 2
+
+
+class ReposeFunnel(C.BenchExperiment):
+    name = "repose-funnel"
+    description = ("angle of repose by the funnel (injection) method: particles flow through "
+                   "a funnel onto a round plate; the heap at rest is measured from its silhouette")
+    responses = ("repose_angle_deg",)
+
+    def _settings(self, profile):
+        P = C.per_profile
+        return (C.material_settings()
+                + C.particle_settings(profile, P(profile, 250, 1000, 20000))
+                + [
+                    Setting("particles.rate", P(profile, 4000.0, 4000.0, 3000.0), "1/s",
+                            "generation rate above the funnel (slowed down while the region is full)",
+                            1.0, 1e6),
+                    Setting("geometry.scale", 4.0, "-", "platform scale factor (paper: 4)", 0.25, 20.0),
+                    Setting("geometry.plate_diameter", 0.25, "m", "base plate diameter at scale 1", 0.01, 10.0),
+                    Setting("geometry.outlet_diameter", 0.025, "m", "funnel outlet diameter at scale 1", 0.001, 1.0),
+                    Setting("geometry.funnel_diameter", 0.1, "m", "funnel rim diameter at scale 1", 0.002, 2.0),
+                    Setting("geometry.funnel_height", 0.05, "m", "funnel cone height at scale 1", 0.001, 2.0),
+                    Setting("geometry.outlet_height", P(profile, 0.04, 0.06, 0.1), "m",
+                            "outlet height above the plate at scale 1", 0.001, 5.0),
+                ]
+                + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 6.0, 10.0, 40.0))
+                + _measure_settings())
+
+    def _run(self, s, seed, out_dir, vtk, progress):
+        from demcal.geometry import Disk, Funnel, WallSet
+        from demcal.particles.insertion import CylinderRegion, Inserter
+
+        k = float(s["geometry.scale"])
+        tpl = C.template_for(s)
+        sizes = C.sizes_for(s)
+        n = C.count_of(s)
+        r_plate = 0.5 * k * s["geometry.plate_diameter"]
+        r_out = 0.5 * k * s["geometry.outlet_diameter"]
+        r_top = 0.5 * k * s["geometry.funnel_diameter"]
+        h_cone = k * s["geometry.funnel_height"]
+        h_out = k * s["geometry.outlet_height"]
+        b_max = _bounding_radius(tpl) * sizes.max_scale
+        if r_top <= r_out:
+            raise ConfigError("geometry.funnel_diameter must exceed geometry.outlet_diameter.")
+        if 2 * r_out < 3 * 2 * b_max:
+            raise ConfigError(
+                f"the funnel outlet ({2 * r_out * 1e3:.0f} mm at scale {k:g}) is narrower than three of "
+                f"the largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.outlet_diameter or "
+                "geometry.scale, or lower particles.scale_max.")
+        vol = _heap_volume(s, tpl)
+        r20 = _cone_radius(vol, 20.0)
+        if r20 > r_plate:
+            raise ConfigError(
+                f"the base plate ({2 * r_plate:.2f} m across at scale {k:g}) is too small for "
+                f"{n} particles: their heap at 20 deg would be {2 * r20:.2f} m across; raise "
+                "geometry.plate_diameter or lower particles.count.")
+        h50 = _cone_radius(vol, 50.0) * math.tan(math.radians(50.0))
+        if h50 > h_out:
+            raise ConfigError(
+                f"the funnel outlet ({h_out:.2f} m above the plate at scale {k:g}) is too low for "
+                f"{n} particles: their heap at 50 deg would be {h50:.2f} m high; raise "
+                "geometry.outlet_height or lower particles.count.")
+
+        mats, inter = _materials(s)
+        walls = WallSet([
+            Disk(centre=(0, 0, 0), normal=(0, 0, 1), radius=r_plate, material=1, name="plate"),
+            Funnel(outlet=(0, 0, h_out), outlet_radius=r_out, top_radius=r_top, cone_height=h_cone,
+                   material=1, name="funnel"),
+        ])
+        rim = h_out + h_cone
+        region_h = max(2.0 * r_top, 6 * b_max)
+        region = CylinderRegion(centre=(0.0, 0.0, rim + b_max), radius=r_top - 1.05 * b_max, height=region_h)
+        if region.radius < 1.5 * b_max:
+            raise ConfigError("the funnel rim is too narrow for the particles: raise geometry.funnel_diameter.")
+        top = rim + b_max + region_h
+        domain = ((-r_plate - 0.2, -r_plate - 0.2, -0.05), (r_plate + 0.2, r_plate + 0.2, top + 1.0))
+        dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
+        sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain)
+        inserter = Inserter(region, n, tpl, sizes=sizes, rate=float(s["particles.rate"]), seed=seed)
+        bradius = np.zeros(0)
+        vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "repose_funnel")
+        progress(f"repose-funnel: {n} particles, dt {dt:.3g} s, plate {2 * r_plate:.2f} m, "
+                 f"outlet {2 * r_out * 1e3:.0f} mm at {h_out:.2f} m")
+
+        def add():
+            nonlocal bradius
+            if inserter.done:
+                return
+            st = sim.state
+            body_r = _bounding_radius(tpl) * st.scales if st.n else np.zeros(0)
+            ins = inserter(sim.time, st.positions.copy(), body_r)
+            if len(ins):
+                sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales,
+                                  velocities=ins.velocities, seed=seed)
+
+        add()
+        settle = _Settle(sim, float(s["time.rest_speed"]))
+        last_report = [0.0]
+
+        def each():
+            add()
+            vtkw(sim)
+            C.check_finite(sim, "repose-funnel")
+            st = sim.state
+            if sim.time - last_report[0] >= 0.25:
+                last_report[0] = sim.time
+                progress(f"t {sim.time:.2f} s: {st.n} particles in, {sim.escaped} off the plate, "
+                         f"rms speed {C.rms_speed(sim):.3f} m/s")
+
+        def stop():
+            st = sim.state
+            if not inserter.done:
+                return False
+            in_funnel = int(np.sum(st.positions[:, 2] > h_out - 0.5 * b_max))
+            if in_funnel and _jammed(sim, h_out, b_max):
+                raise SimulationError(
+                    f"the funnel jammed with {in_funnel} particles in it at t = {sim.time:.2f} s; "
+                    "raise geometry.outlet_diameter or geometry.scale.")
+            return settle(in_funnel == 0)
+
+        done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each)
+        vtkw(sim, force=True)
+        if not done:
+            st = sim.state
+            in_funnel = int(np.sum(st.positions[:, 2] > h_out - 0.5 * b_max))
+            raise SimulationError(
+                f"the heap was not at rest after time.max_time = {s['time.max_time']:g} s "
+                f"({in_funnel} particles still in the funnel, rms speed {C.rms_speed(sim):.3g} m/s); "
+                "raise time.max_time.")
+        progress(f"at rest at t {sim.time:.2f} s; measuring")
+        responses, spread, artifacts = _measure(
+            sim, s, r_plate, out_dir, None)
+        if vtkw.path:
+            artifacts["vtk"] = vtkw.path
+        responses["particles_lost"] = float(sim.escaped)
+        return dict(responses=responses, spread=spread, particles=sim.n_particles + sim.escaped,
+                    steps=sim.step_count, simulated_s=sim.time, artifacts=artifacts)
+
+
+def _jammed(sim, h_out, b_max) -> bool:
+    """Particles in the funnel and none of them moving: an arch over the outlet."""
+    st = sim.state
+    inside = st.positions[:, 2] > h_out - 0.5 * b_max
+    if not inside.any():
+        return False
+    speed = np.linalg.norm(st.velocities[inside], axis=1)
+    return bool(speed.max() < 1e-3)
+
+
+class ReposeCylinder(C.BenchExperiment):
+    name = "repose-cylinder"
+    description = ("angle of repose by the lifted cylinder: a cylinder on the plate is filled, "
+                   "lifted, and the heap at rest is measured from its silhouette")
+    responses = ("repose_angle_deg",)
+
+    def _settings(self, profile):
+        P = C.per_profile
+        return (C.material_settings()
+                + C.particle_settings(profile, P(profile, 250, 1000, 20000))
+                + [
+                    Setting("geometry.scale", 4.0, "-", "platform scale factor (paper: 4)", 0.25, 20.0),
+                    Setting("geometry.plate_diameter", 0.25, "m", "base plate diameter at scale 1", 0.01, 10.0),
+                    Setting("geometry.cylinder_diameter", P(profile, 0.025, 0.03, 0.08), "m",
+                            "cylinder inner diameter at scale 1", 0.002, 2.0),
+                    Setting("geometry.lift_speed", P(profile, 0.1, 0.1, 0.05), "m/s",
+                            "cylinder lifting speed", 0.001, 10.0),
+                ]
+                + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 6.0, 10.0, 40.0))
+                + _measure_settings())
+
+    def _run(self, s, seed, out_dir, vtk, progress):
+        from demcal.geometry import Cylinder, Disk, WallSet
+        from demcal.particles.insertion import CylinderRegion, insert
+
+        k = float(s["geometry.scale"])
+        tpl = C.template_for(s)
+        sizes = C.sizes_for(s)
+        n = C.count_of(s)
+        r_plate = 0.5 * k * s["geometry.plate_diameter"]
+        r_cyl = 0.5 * k * s["geometry.cylinder_diameter"]
+        b_max = _bounding_radius(tpl) * sizes.max_scale
+        if 2 * r_cyl < 4 * 2 * b_max:
+            raise ConfigError(
+                f"the cylinder ({2 * r_cyl * 1e3:.0f} mm at scale {k:g}) is narrower than four of the "
+                f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.cylinder_diameter.")
+        vol = _heap_volume(s, tpl)
+        r20 = _cone_radius(vol, 20.0)
+        if r20 > r_plate:
+            raise ConfigError(
+                f"the base plate ({2 * r_plate:.2f} m across at scale {k:g}) is too small for "
+                f"{n} particles: their heap at 20 deg would be {2 * r20:.2f} m across; raise "
+                "geometry.plate_diameter or lower particles.count.")
+        # random insertion reaches about 30 % solids (bounding spheres): size the fill for 25 %
+        lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
+        b_vol = n * 4.0 / 3.0 * math.pi * _bounding_radius(tpl) ** 3 * C.mean_cube(lo, hi)
+        fill_h = b_vol / (0.25 * math.pi * (r_cyl - 0.01 * r_cyl) ** 2) + 2 * b_max
+        motion = C.DrivenTranslation()
+        mats, inter = _materials(s)
+        gap = 0.1 * float(np.min(tpl.radii)) * lo
+        walls = WallSet([
+            Disk(centre=(0, 0, 0), normal=(0, 0, 1), radius=r_plate, material=1, name="plate"),
+            Cylinder(base=(0, 0, gap), axis=(0, 0, 1), radius=r_cyl, length=fill_h + 2 * b_max,
+                     material=1, name="cylinder", motion=motion),
+        ])
+        domain = ((-r_plate - 0.2, -r_plate - 0.2, -0.05), (r_plate + 0.2, r_plate + 0.2, 4 * fill_h + 1.0))
+        dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
+        sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain)
+        region = CylinderRegion(centre=(0, 0, 0), radius=r_cyl * 0.99, height=fill_h)
+        ins = insert(region, n, tpl, sizes=sizes, seed=seed)
+        sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales, seed=seed)
+        vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "repose_cylinder")
+        progress(f"repose-cylinder: {n} particles, dt {dt:.3g} s, cylinder {2 * r_cyl * 1e3:.0f} mm")
+        max_time = float(s["time.max_time"])
+
+        def each():
+            vtkw(sim)
+            C.check_finite(sim, "repose-cylinder")
+
+        settle = _Settle(sim, float(s["time.rest_speed"]))
+        if not C.run_until(sim, 0.02, settle, max_time, each):
+            raise SimulationError(f"the filled cylinder did not settle within time.max_time = {max_time:g} s; "
+                                  "raise time.max_time.")
+        progress(f"settled at t {sim.time:.2f} s; lifting")
+        top = float((sim.state.sphere_positions[:, 2] + sim.state.radii).max())
+        v = float(s["geometry.lift_speed"])
+        motion.set_velocity(sim.time, (0.0, 0.0, v))
+        t_clear = sim.time + (top + b_max) / v
+        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, each)
+        motion.move_to(sim.time, (0.0, 0.0, 10.0 * (fill_h + 1.0)))
+        settle = _Settle(sim, float(s["time.rest_speed"]))
+        if not C.run_until(sim, 0.02, settle, max_time, each):
+            raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "
+                                  "raise time.max_time.")
+        vtkw(sim, force=True)
+        progress(f"at rest at t {sim.time:.2f} s; measuring")
+        responses, spread, artifacts = _measure(sim, s, r_plate, out_dir, None)
+        if vtkw.path:
+            artifacts["vtk"] = vtkw.path
+        responses["particles_lost"] = float(sim.escaped)
+        return dict(responses=responses, spread=spread, particles=sim.n_particles + sim.escaped,
+                    steps=sim.step_count, simulated_s=sim.time, artifacts=artifacts)
+
+
+register(ReposeFunnel())
+register(ReposeCylinder())

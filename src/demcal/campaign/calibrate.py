@@ -1,0 +1,332 @@
+"""Calibrate: fit the response model, solve each lab target, verify by simulation.
+
+``demcal calibrate campaign.toml`` (paper §2.3 and §3.2):
+
+1. the design results from the store are fitted with :mod:`demcal.rsm` (fit summary
+   of the orders, the campaign's model order, reduced by backward elimination at
+   ``[model] reduce_alpha`` if set);
+2. each condition's target is solved with :mod:`demcal.optimize`: the whole
+   solution set (desirability >= 0.99) and the range of every factor over it --
+   one angle cannot pin down four parameters. The solution simulated is the one of
+   the set nearest the design centre (least extrapolation); a target outside what
+   the model reaches inside the design box is said so plainly, and the box's
+   nearest point is simulated instead;
+3. the chosen parameters are simulated again (``[verification] replicates``) through
+   the same runner and store, and the simulated mean is set against the lab's mean
+   with its relative error and whether it lies inside the lab's standard deviation.
+
+Everything is recomputed from the store each time (the fits and the seeded search are
+deterministic), so ``demcal report`` shows exactly what ``calibrate`` found.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from demcal.campaign.config import Campaign, Condition
+from demcal.campaign.runner import design_results, point_settings, run_specs
+from demcal.campaign.store import RunRecord, RunSpec, Store, write_json_atomic
+from demcal.errors import DataError
+
+#: Significant digits of a calibrated parameter as it is simulated and reported.
+PARAMETER_DIGITS = 3
+
+
+@dataclass
+class ResponseVerdict:
+    """Simulated against measured for one response of one condition."""
+
+    response: str
+    target: float
+    lab_sd: float | None
+    predicted: float  #: the model's prediction at the chosen parameters
+    simulated: list[float]  #: each verification replicate
+    reachable: tuple[float, float]  #: the model's range inside the design box
+
+    @property
+    def simulated_mean(self) -> float:
+        return float(np.mean(self.simulated)) if self.simulated else float("nan")
+
+    @property
+    def simulated_sd(self) -> float:
+        return float(np.std(self.simulated, ddof=1)) if len(self.simulated) > 1 else float("nan")
+
+    @property
+    def relative_error_percent(self) -> float:
+        return 100.0 * abs(self.simulated_mean - self.target) / abs(self.target)
+
+    @property
+    def within_lab_sd(self) -> bool | None:
+        if self.lab_sd is None or not self.simulated:
+            return None
+        return abs(self.simulated_mean - self.target) <= self.lab_sd
+
+    @property
+    def target_reachable(self) -> bool:
+        lo, hi = self.reachable
+        tol = 1e-9 * max(1.0, abs(hi - lo))
+        return lo - tol <= self.target <= hi + tol
+
+
+@dataclass
+class ConditionResult:
+    """The calibration of one condition (e.g. one moisture content)."""
+
+    condition: Condition
+    chosen: dict[str, float]  #: parameter key -> calibrated value (what was simulated)
+    chosen_coded: dict[str, float]  #: factor name -> coded level
+    desirability: float
+    optimization: Any  #: demcal.optimize.Optimization; its first solution is the chosen one
+    factor_ranges: dict[str, tuple[float, float]]  #: parameter key -> range over the solution set
+    verdicts: list[ResponseVerdict]
+    verification: list[RunRecord]
+    specs: list[RunSpec]
+    notes: list[str] = field(default_factory=list)
+    reference_predicted: dict[str, float] = field(default_factory=dict)  #: response -> model at the published values
+
+    @property
+    def solutions(self) -> pd.DataFrame:
+        """The distinct solutions of the search, the chosen one first."""
+        return self.optimization.solutions
+
+    @property
+    def verified(self) -> bool:
+        return bool(self.verification) and all(r.status == "done" for r in self.verification)
+
+
+@dataclass
+class Calibration:
+    """Everything ``demcal calibrate`` found for a campaign."""
+
+    campaign: Campaign
+    table: pd.DataFrame  #: the design with its results (design_results)
+    full: dict[str, Any]  #: response -> the full model of the campaign's order
+    models: dict[str, Any]  #: response -> the model used (reduced if asked)
+    removed: dict[str, tuple]  #: response -> terms removed by the reduction, with p
+    conditions: list[ConditionResult]
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"campaign": self.campaign.name, "profile": self.campaign.profile,
+                               "test": self.campaign.test, "notes": list(self.notes), "models": {},
+                               "conditions": []}
+        for name, model in self.models.items():
+            out["models"][name] = {
+                **model.to_dict(), "order": self.campaign.model_order,
+                "removed": [{"term": t, "p": p} for t, p in self.removed.get(name, ())],
+                "equation_coded": model.equation("coded"), "equation_actual": model.equation("actual"),
+            }
+        for result in self.conditions:
+            out["conditions"].append({
+                "name": result.condition.name,
+                "chosen": result.chosen, "chosen_coded": result.chosen_coded,
+                "desirability": result.desirability,
+                "factor_ranges": {k: list(v) for k, v in result.factor_ranges.items()},
+                "reference": dict(result.condition.reference),
+                "reference_predicted": result.reference_predicted,
+                "notes": result.notes,
+                "verification": [
+                    {"response": v.response, "target": v.target, "lab_sd": v.lab_sd, "predicted": v.predicted,
+                     "simulated": v.simulated, "simulated_mean": _num(v.simulated_mean),
+                     "simulated_sd": _num(v.simulated_sd), "relative_error_percent": _num(v.relative_error_percent),
+                     "within_lab_sd": v.within_lab_sd, "reachable": list(v.reachable),
+                     "target_reachable": v.target_reachable}
+                    for v in result.verdicts
+                ],
+            })
+        return out
+
+
+def _num(value: float) -> float | None:
+    return float(value) if np.isfinite(value) else None
+
+
+def _round(value: float, digits: int = PARAMETER_DIGITS) -> float:
+    return float(f"{value:.{digits}g}")
+
+
+def doe_factors(campaign: Campaign):
+    """The campaign's factors as :class:`demcal.doe.factors.Factor` (name, levels, unit)."""
+    from demcal.doe.factors import Factor
+
+    return [Factor(f.name, f.low, f.high, f.unit, f.label) for f in campaign.factors]
+
+
+def fit_models(campaign: Campaign, table: pd.DataFrame):
+    """Full and (if asked) reduced model of every response."""
+    from demcal.rsm import backward_elimination, fit_response_surface
+
+    factors = doe_factors(campaign)
+    names = campaign.factor_names
+    full, models, removed, notes = {}, {}, {}, []
+    for response in campaign.response_names:
+        rows = table[table[response].notna()]
+        missing = len(table) - len(rows)
+        if missing:
+            notes.append(f"{missing} of {len(table)} design runs of {response} have no result "
+                         f"(failed or not run) and are left out of the fit.")
+        x, y = rows[names].to_numpy(float), rows[response].to_numpy(float)
+        model = fit_response_surface(x, y, factors, campaign.model_order, response)
+        full[response] = model
+        if campaign.reduce_alpha is not None:
+            reduction = backward_elimination(model, campaign.reduce_alpha)
+            models[response], removed[response] = reduction.model, reduction.removed
+        else:
+            models[response], removed[response] = model, ()
+    return full, models, removed, notes
+
+
+def _choose(solutions: pd.DataFrame, names: list[str], threshold: float) -> pd.Series:
+    """The solution of the set nearest the design centre (coded), else the best one."""
+    good = solutions[solutions["desirability"] >= threshold]
+    if good.empty:
+        return solutions.iloc[0]
+    norms = np.linalg.norm(good[[f"coded:{n}" for n in names]].to_numpy(float), axis=1)
+    return good.iloc[int(np.argmin(norms))]
+
+
+def solve_condition(campaign: Campaign, models: dict, condition: Condition, seed: int = 0):
+    """Solve one condition's targets; returns (chosen coded point, optimisation, notes)."""
+    from demcal.optimize import Goal, optimize, reachable_range
+
+    names = campaign.factor_names
+    notes = []
+    goals = []
+    for target in condition.targets:
+        model = models[target.response]
+        lo, hi = reachable_range(model, seed=seed)
+        if target.mean < lo or target.mean > hi:
+            # Outside the box: aim at the nearest edge of what the box reaches.
+            edge = lo if target.mean < lo else hi
+            notes.append(
+                f"the target {target.response} = {target.mean:g} lies outside what the model reaches inside "
+                f"the design box ({lo:.2f} to {hi:.2f}); the parameters simulated are the box's nearest "
+                f"point ({edge:.2f}), so the target cannot be met without wider factor levels")
+            goals.append(Goal(target.response, "target", target=edge))
+        else:
+            goals.append(Goal(target.response, "target", target=target.mean))
+    optimization = optimize({g.response: models[g.response] for g in goals}, goals, seed=seed)
+    best = _choose(optimization.solutions, names, optimization.threshold)
+    solutions = optimization.solutions
+    solutions = pd.concat([solutions.loc[[best.name]], solutions.drop(index=best.name)]).reset_index(drop=True)
+    return best, dataclasses.replace(optimization, solutions=solutions), notes
+
+
+def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str | None = None,
+              progress: bool = True, simulate: bool = True, retry_failed: bool = False,
+              executor=None) -> Calibration:
+    """Fit, solve every condition and (``simulate=True``) run the verification replicates.
+
+    With ``simulate=False`` nothing is run: verification results are taken from the
+    store as far as they exist (what ``demcal report`` does).
+    """
+    store_path = campaign.store_path
+    if not store_path.is_file():
+        raise DataError(f"{campaign.path.name} has no results yet; run `demcal run {campaign.path}` first.")
+    with Store(store_path, readonly=True) as store:
+        table = design_results(campaign, store)
+    done = int((table["status"] == "done").sum())
+    if done <= len(campaign.factors) + 1:
+        failed = int((table["status"] == "failed").sum())
+        hint = ("; rerun the failed ones with `demcal run --retry-failed`" if failed
+                else f"; run `demcal run {campaign.path}` to finish them")
+        raise DataError(f"only {done} of {len(table)} design runs are done{hint}.")
+    full, models, removed, notes = fit_models(campaign, table)
+
+    names = campaign.factor_names
+    by_name = {f.name: f for f in campaign.factors}
+    results: list[ConditionResult] = []
+    all_specs: list[RunSpec] = []
+    for ci, condition in enumerate(campaign.conditions):
+        best, optimization, cond_notes = solve_condition(campaign, models, condition)
+        chosen = {by_name[n].parameter: _round(float(best[f"actual:{n}"])) for n in names}
+        coded = {n: float(by_name[n].to_coded(chosen[by_name[n].parameter])) for n in names}
+        point = np.array([coded[n] for n in names])
+        ranges = {by_name[n].parameter: tuple(map(float, r)) for n, r in optimization.factor_ranges.items()}
+        settings = point_settings(campaign, chosen)
+        specs = [RunSpec("verification", f"verify {condition.name} #{r + 1}", campaign.test, campaign.profile,
+                         chosen, settings, campaign.verification_seed + 1000 * ci + r)
+                 for r in range(campaign.verification_replicates)]
+        all_specs.extend(specs)
+        reference_predicted = {}
+        if condition.reference and all(f.parameter in condition.reference for f in campaign.factors):
+            ref = np.array([[by_name[n].to_coded(condition.reference[by_name[n].parameter]) for n in names]])
+            reference_predicted = {r: float(models[r].predict(ref)[0]) for r in campaign.response_names}
+        verdicts = []
+        for target in condition.targets:
+            model = models[target.response]
+            verdicts.append(ResponseVerdict(
+                response=target.response, target=target.mean, lab_sd=target.sd,
+                predicted=float(model.predict(point[None, :])[0]), simulated=[],
+                reachable=tuple(map(float, optimization.reachable.get(target.response, (np.nan, np.nan)))),
+            ))
+        results.append(ConditionResult(
+            condition=condition, chosen=chosen, chosen_coded=coded,
+            desirability=float(best["desirability"]), optimization=optimization,
+            factor_ranges=ranges, verdicts=verdicts, verification=[], specs=specs, notes=cond_notes,
+            reference_predicted=reference_predicted,
+        ))
+
+    if simulate and all_specs:
+        summary = run_specs(campaign, all_specs, workers=workers, scheduler=scheduler, progress=progress,
+                            retry_failed=retry_failed, executor=executor, desc=f"{campaign.name} verification")
+        if summary.failed:
+            notes.append(f"{summary.failed} verification runs failed (rerun with --retry-failed): "
+                         + "; ".join(f"{label}: {error}" for label, error in summary.failures[:3]))
+    with Store(store_path, readonly=True) as store:
+        for result in results:
+            result.verification = store.records([s.key for s in result.specs])
+            for verdict in result.verdicts:
+                verdict.simulated = [float(r.responses[verdict.response]) for r in result.verification
+                                     if r.status == "done" and verdict.response in r.responses]
+                _judge(result, verdict)
+    calibration = Calibration(campaign, table, full, models, removed, results, notes)
+    if simulate:
+        write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
+    return calibration
+
+
+def _judge(result: ConditionResult, verdict: ResponseVerdict) -> None:
+    """Say in words how the verification went, and why it missed if it did."""
+    if not verdict.simulated:
+        result.notes.append(f"{verdict.response}: no verification run is done yet.")
+        return
+    if verdict.within_lab_sd is False:
+        why = ("the target is outside what the design box can reach" if not verdict.target_reachable else
+               f"the model predicted {verdict.predicted:.2f} but the simulations gave "
+               f"{verdict.simulated_mean:.2f} (model error plus run-to-run noise"
+               + (f", replicate sd {verdict.simulated_sd:.2f}" if np.isfinite(verdict.simulated_sd) else "")
+               + ")")
+        result.notes.append(
+            f"{verdict.response}: simulated {verdict.simulated_mean:.2f} misses the lab's "
+            f"{verdict.target:g} ± {verdict.lab_sd:g} by {abs(verdict.simulated_mean - verdict.target):.2f}; {why}.")
+
+
+def describe(calibration: Calibration) -> str:
+    """A few lines for the terminal."""
+    lines = []
+    for response, model in calibration.models.items():
+        fit = model.fit
+        lines.append(f"{response}: {calibration.campaign.model_order} model"
+                     + (f" reduced at alpha {calibration.campaign.reduce_alpha:g}" if calibration.removed[response] else "")
+                     + f", R² {fit.r2:.3f}, adj. R² {fit.adj_r2:.3f}, pred. R² {fit.pred_r2:.3f}")
+        lines.append(f"  {model.equation('coded', digits=4)}")
+    for result in calibration.conditions:
+        params = ", ".join(f"{k} = {v:g}" for k, v in result.chosen.items())
+        lines.append(f"{result.condition.name}: {params}")
+        for v in result.verdicts:
+            inside = {True: "inside", False: "outside", None: "no lab sd"}[v.within_lab_sd]
+            sim = (f"simulated {v.simulated_mean:.2f} (n={len(v.simulated)}), error {v.relative_error_percent:.2f} %, "
+                   f"{inside} the lab spread" if v.simulated else "not simulated yet")
+            sd = f" ± {v.lab_sd:g}" if v.lab_sd is not None else ""
+            lines.append(f"  {v.response}: target {v.target:g}{sd}, predicted {v.predicted:.2f}, {sim}")
+        for note in result.notes:
+            lines.append(f"  note: {note}")
+    for note in calibration.notes:
+        lines.append(f"note: {note}")
+    return "\n".join(lines)

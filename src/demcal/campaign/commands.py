@@ -1,0 +1,113 @@
+"""``demcal run | calibrate | report | demo``: campaigns from the command line."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from demcal.errors import ConfigError
+
+
+def register(subparsers) -> None:
+    run = subparsers.add_parser(
+        "run", help="simulate every design point of a campaign (resumable, parallel)",
+        description="Simulate every design point of a campaign file. Finished runs are kept in "
+                    "the campaign's store and skipped when run again; failed runs are retried "
+                    "only with --retry-failed.")
+    _common(run)
+    _execution(run)
+    run.add_argument("--retry-failed", action="store_true", help="run failed points again")
+    run.set_defaults(func=_run)
+
+    calibrate = subparsers.add_parser(
+        "calibrate", help="fit the response model, solve each target, verify by simulation",
+        description="Fit the response model to the design results, solve it for each condition's "
+                    "lab target and simulate the chosen parameters again (verification replicates).")
+    _common(calibrate)
+    _execution(calibrate)
+    calibrate.add_argument("--retry-failed", action="store_true", help="run failed verification runs again")
+    calibrate.set_defaults(func=_calibrate)
+
+    report = subparsers.add_parser(
+        "report", help="write the campaign's HTML report and its tables (CSV, JSON)",
+        description="Write one self-contained HTML report with every table and figure, plus CSV "
+                    "and JSON of each table, into the campaign's work folder.")
+    _common(report)
+    report.add_argument("--out", type=Path, help="report folder (default: WORKDIR/report)")
+    report.set_defaults(func=_report)
+
+    demo = subparsers.add_parser(
+        "demo", help="run the paper's two example campaigns end to end and print the report path",
+        description="Copy the residual-film-soil example campaigns into OUT, run them, calibrate "
+                    "them and write the report.")
+    demo.add_argument("--out", type=Path, default=Path("demo-output"), help="output folder (default: demo-output)")
+    demo.add_argument("--profile", default="quick", help="bench profile: quick (default) or paper")
+    _execution(demo, scheduler=False)
+    demo.set_defaults(func=_demo)
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign", type=Path, help="campaign file (TOML)")
+    parser.add_argument("--profile", help="bench profile to run instead of the file's (e.g. paper)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _execution(parser: argparse.ArgumentParser, scheduler: bool = True) -> None:
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="worker processes (default: the file's [executor] workers, else one per core)")
+    if scheduler:
+        parser.add_argument("--scheduler", metavar="ADDRESS",
+                            help="run on a Dask cluster, e.g. tcp://host:8786")
+
+
+def _load(args):
+    from demcal.campaign.config import load_campaign
+
+    campaign = load_campaign(args.campaign)
+    if args.profile:
+        campaign = campaign.with_profile(args.profile)
+    if getattr(args, "workers", None) is not None and args.workers < 0:
+        raise ConfigError(f"--workers must be 0 (one per core) or more, got {args.workers}.")
+    return campaign
+
+
+def _run(args) -> int:
+    from demcal.campaign.runner import run_campaign
+
+    campaign = _load(args)
+    summary = run_campaign(campaign, workers=args.workers, scheduler=args.scheduler,
+                           retry_failed=args.retry_failed, progress=not args.quiet)
+    for label, error in summary.failures[:10]:
+        print(f"  {label}: {error}", file=sys.stderr)
+    print(summary.sentence(campaign.name))
+    print(f"Results: {campaign.store_path}")
+    # Runs still in another runner's hands are that runner's to finish.
+    return 1 if summary.failed or summary.done + summary.elsewhere < summary.total else 0
+
+
+def _calibrate(args) -> int:
+    from demcal.campaign.calibrate import calibrate, describe
+
+    campaign = _load(args)
+    calibration = calibrate(campaign, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet,
+                            retry_failed=args.retry_failed)
+    print(describe(calibration))
+    return 0
+
+
+def _report(args) -> int:
+    from demcal.report.campaign_report import write_report
+
+    campaign = _load(args)
+    path = write_report(campaign, out=args.out)
+    print(f"Report: {path}")
+    return 0
+
+
+def _demo(args) -> int:
+    from demcal.campaign.demo import run_demo
+
+    path = run_demo(args.out, profile=args.profile, workers=args.workers)
+    print(f"Report: {path}")
+    return 0

@@ -1,0 +1,697 @@
+"""Campaign files: TOML parsed once into frozen dataclasses.
+
+A campaign file says which virtual test to run, which contact parameters to vary
+(factors with low/high levels), how to lay out the design, which responses to
+fit, which lab targets to solve for (one condition per material state, e.g. per
+moisture content) and how to run it. :func:`load_campaign` reads and checks the
+whole file before anything runs; every mistake becomes one
+:class:`~demcal.errors.ConfigError` sentence naming the file, the line and the key,
+e.g. ``repose.toml line 12: factor 'particle.static_friction' has low 0.5 >=
+high 0.3; swap them.``
+
+Layout (every table and key; ``examples/residual-film-soil/repose.toml`` is a full
+example)::
+
+    [campaign]      name, description, workdir, lab (a TOML file of lab records)
+    [experiment]    test, profile, plugins, [experiment.settings] KEY = VALUE
+    [[factors]]     name, parameter, low, high, label, unit
+    [design]        type, center, variant, alpha, fraction, levels, runs
+    [[responses]]   name, label, unit
+    [runs]          seed, replicates
+    [model]         order, reduce_alpha
+    [[conditions]]  name, label, sample, photo, [conditions.targets] RESPONSE = {mean, sd},
+                    [conditions.reference] PARAMETER = VALUE
+    [verification]  replicates, seed
+    [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
+    [report]        title, reference_table
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import importlib
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+from demcal.doe.factors import default_names
+from demcal.errors import ConfigError
+
+#: Keys allowed in each table; the path uses ``[]`` for an array of tables.
+_ALLOWED: dict[str, tuple[str, ...]] = {
+    "": ("campaign", "experiment", "factors", "design", "responses", "runs", "model",
+         "conditions", "verification", "executor", "report"),
+    "campaign": ("name", "description", "workdir", "lab"),
+    "experiment": ("test", "profile", "plugins", "settings"),
+    "factors[]": ("name", "parameter", "low", "high", "label", "unit"),
+    "design": ("type", "center", "variant", "alpha", "fraction", "levels", "runs"),
+    "responses[]": ("name", "label", "unit"),
+    "runs": ("seed", "replicates"),
+    "model": ("order", "reduce_alpha"),
+    "conditions[]": ("name", "label", "sample", "photo", "targets", "reference"),
+    "conditions[].targets.*": ("mean", "sd"),
+    "verification": ("replicates", "seed"),
+    "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
+    "report": ("title", "reference_table"),
+}
+_REQUIRED_TABLES = ("campaign", "experiment", "factors", "conditions")
+_MODEL_ORDERS = ("linear", "2fi", "quadratic", "cubic")
+_EXECUTOR_KINDS = ("local", "dask")
+_START_METHODS = ("spawn", "forkserver")
+
+
+@dataclass(frozen=True)
+class Factor:
+    """One varied contact parameter: a setting key with its low and high level."""
+
+    name: str  #: short symbol used in the model, e.g. ``A``
+    parameter: str  #: the experiment setting it drives, e.g. ``particle.restitution``
+    low: float  #: actual value at coded level -1
+    high: float  #: actual value at coded level +1
+    label: str = ""
+    unit: str = "-"
+
+    @property
+    def center(self) -> float:
+        return 0.5 * (self.low + self.high)
+
+    @property
+    def half_range(self) -> float:
+        return 0.5 * (self.high - self.low)
+
+    def to_actual(self, coded: float) -> float:
+        return self.center + coded * self.half_range
+
+    def to_coded(self, actual: float) -> float:
+        return (actual - self.center) / self.half_range
+
+
+@dataclass(frozen=True)
+class Response:
+    name: str  #: key in the experiment's ``responses``
+    label: str = ""
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class Target:
+    """A lab measurement to reproduce: mean and standard deviation."""
+
+    response: str
+    mean: float
+    sd: float | None = None
+
+
+@dataclass(frozen=True)
+class Condition:
+    """One material state (e.g. a moisture content) with its lab targets."""
+
+    name: str
+    label: str
+    targets: tuple[Target, ...]
+    #: published calibrated values to compare against, parameter key -> value
+    reference: Mapping[str, float] = field(default_factory=dict)
+    photo: Path | None = None  #: a measured heap photo shown next to the simulated one
+    sample: Any = None  #: the sample's :class:`demcal.measure.lab.LabRecord`, if named
+
+    def target(self, response: str) -> Target:
+        return next(t for t in self.targets if t.response == response)
+
+
+@dataclass(frozen=True)
+class DesignConfig:
+    type: str = "box-behnken"
+    center: int | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    kind: str = "local"
+    workers: int = 0  #: 0 = one per CPU core
+    scheduler: str | None = None  #: dask scheduler address, e.g. tcp://host:8786
+    start_method: str = "spawn"
+    heartbeat_timeout_s: float = 120.0
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """Everything one campaign file says, checked."""
+
+    path: Path
+    name: str
+    description: str
+    test: str
+    profile: str
+    plugins: tuple[str, ...]
+    settings: Mapping[str, Any]  #: fixed setting overrides applied to every run
+    factors: tuple[Factor, ...]
+    design: DesignConfig
+    responses: tuple[Response, ...]
+    conditions: tuple[Condition, ...]
+    seed: int = 1
+    replicates: int = 1
+    model_order: str = "quadratic"
+    reduce_alpha: float | None = None
+    verification_replicates: int = 3
+    verification_seed: int = 100_000
+    executor: ExecutorConfig = ExecutorConfig()
+    workdir: Path = Path(".")
+    title: str = ""
+    reference_table: Path | None = None  #: a published design table to re-analyse
+
+    @property
+    def factor_names(self) -> list[str]:
+        return [f.name for f in self.factors]
+
+    @property
+    def response_names(self) -> list[str]:
+        return [r.name for r in self.responses]
+
+    @property
+    def store_path(self) -> Path:
+        return self.workdir / "store.sqlite"
+
+    def with_profile(self, profile: str) -> "Campaign":
+        """The same campaign run at another profile of its experiment."""
+        if profile == self.profile:
+            return self
+        from demcal.bench.registry import get_experiment, resolve_settings
+
+        experiment = get_experiment(self.test)
+        resolve_settings(experiment, self.settings, profile)
+        return dataclasses.replace(self, profile=profile)
+
+    def with_workdir(self, workdir: Path) -> "Campaign":
+        return dataclasses.replace(self, workdir=Path(workdir))
+
+
+def load_campaign(path: str | Path) -> Campaign:
+    """Read and check a campaign file; raise :class:`ConfigError` on the first mistake."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"campaign file '{path}' does not exist.") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read campaign file '{path}': {exc}.") from None
+    return parse_campaign(text, path)
+
+
+def parse_campaign(text: str, path: str | Path = "campaign.toml") -> Campaign:
+    """Check ``text`` (the contents of the campaign file ``path``) into a :class:`Campaign`."""
+    return _Loader(text, Path(path)).campaign()
+
+
+# --------------------------------------------------------------------------- loader
+
+
+class _Loader:
+    def __init__(self, text: str, path: Path):
+        self.path = path
+        self.text = text
+        try:
+            self.data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            message = str(exc)
+            match = re.search(r"\(at line (\d+), column \d+\)", message)
+            where = f" line {match.group(1)}" if match else ""
+            reason = re.sub(r"\s*\(at line \d+, column \d+\)", "", message)
+            raise ConfigError(f"{path.name}{where}: not valid TOML ({reason}).") from None
+        self.lines = _key_lines(text)
+        self.samples: dict = {}  # lab records by sample name, from [campaign] lab
+
+    # -- errors
+    def error(self, where: tuple, message: str) -> ConfigError:
+        line = self.line(where)
+        prefix = f"{self.path.name} line {line}" if line else self.path.name
+        message = message.rstrip()
+        if not message.endswith((".", "?", "!")):
+            message += "."
+        return ConfigError(f"{prefix}: {message}")
+
+    def line(self, where: tuple) -> int | None:
+        where = tuple(where)
+        while where:
+            if where in self.lines:
+                return self.lines[where]
+            where = where[:-1]
+        return None
+
+    # -- generic checks
+    def check_keys(self, table: Mapping[str, Any], where: tuple, schema: str) -> None:
+        allowed = _ALLOWED[schema]
+        for key in table:
+            if key not in allowed:
+                near = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+                hint = f"did you mean '{near[0]}'?" if near else f"valid keys are: {', '.join(allowed)}"
+                shown = _table_name(where) or "the top level"
+                raise self.error(where + (key,), f"unknown key '{key}' in {shown}; {hint}")
+
+    def table(self, data: Mapping, key: str, where: tuple, required: bool = False) -> dict:
+        value = data.get(key)
+        if value is None:
+            if required:
+                raise self.error(where, f"missing table [{_dotted(where + (key,))}]; add it")
+            return {}
+        if not isinstance(value, dict):
+            raise self.error(where + (key,), f"'{_dotted(where + (key,))}' must be a table")
+        return value
+
+    def string(self, data: Mapping, key: str, where: tuple, default: str | None = None) -> str:
+        value = data.get(key, default)
+        if value is None:
+            raise self.error(where, f"missing key '{key}' in {_table_name(where)}; add it")
+        if not isinstance(value, str) or not value.strip():
+            raise self.error(where + (key,), f"'{key}' must be a non-empty string")
+        return value.strip()
+
+    def number(self, data: Mapping, key: str, where: tuple, default: float | None = None) -> float:
+        value = data.get(key, default)
+        if value is None:
+            raise self.error(where, f"missing key '{key}' in {_table_name(where)}; add it")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.error(where + (key,), f"'{key}' must be a finite number, got {value!r}")
+        return float(value)
+
+    def integer(self, data: Mapping, key: str, where: tuple, default: int, minimum: int) -> int:
+        value = data.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(where + (key,), f"'{key}' must be a whole number, got {value!r}")
+        if value < minimum:
+            raise self.error(where + (key,), f"'{key}' must be at least {minimum}, got {value}")
+        return value
+
+    def choice(self, data: Mapping, key: str, where: tuple, choices: tuple[str, ...], default: str) -> str:
+        value = self.string(data, key, where, default)
+        if value not in choices:
+            near = difflib.get_close_matches(value, choices, n=1, cutoff=0.5)
+            hint = f"did you mean '{near[0]}'?" if near else f"choose one of: {', '.join(choices)}"
+            raise self.error(where + (key,), f"'{key}' = '{value}' is not known; {hint}")
+        return value
+
+    def array_of_tables(self, key: str) -> list[dict]:
+        value = self.data.get(key, [])
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise self.error((key,), f"'{key}' must be written as [[{key}]] tables")
+        return value
+
+    # -- the campaign
+    def campaign(self) -> Campaign:
+        data = self.data
+        self.check_keys(data, (), "")
+        for name in _REQUIRED_TABLES:
+            if name not in data:
+                form = f"[[{name}]]" if name in ("factors", "conditions") else f"[{name}]"
+                raise self.error((), f"missing {form}; a campaign needs {form}")
+
+        meta = self.table(data, "campaign", (), required=True)
+        self.check_keys(meta, ("campaign",), "campaign")
+        name = self.string(meta, "name", ("campaign",))
+        description = meta.get("description", "")
+        workdir = Path(self.string(meta, "workdir", ("campaign",), f"{self.path.stem}-runs"))
+        if not workdir.is_absolute():
+            workdir = self.path.parent / workdir
+
+        self.samples = self.lab_records(meta)
+        experiment, test, profile, plugins, settings = self.experiment()
+        table = experiment.settings(profile)
+        factors = self.factors(experiment, table, profile)
+        overlap = sorted(set(settings) & {f.parameter for f in factors})
+        if overlap:
+            raise self.error(("experiment", "settings", overlap[0]),
+                             f"'{overlap[0]}' is both a factor and a fixed setting; keep one")
+        design = self.design(len(factors))
+        responses = self.responses(experiment)
+        conditions = self.conditions(responses, factors)
+
+        runs = self.table(data, "runs", ())
+        self.check_keys(runs, ("runs",), "runs")
+        model = self.table(data, "model", ())
+        self.check_keys(model, ("model",), "model")
+        order = self.choice(model, "order", ("model",), _MODEL_ORDERS, "quadratic")
+        alpha = model.get("reduce_alpha", False)
+        if alpha is False:
+            reduce_alpha = None
+        else:
+            reduce_alpha = self.number(model, "reduce_alpha", ("model",))
+            if not 0 < reduce_alpha < 1:
+                raise self.error(("model", "reduce_alpha"),
+                                 f"'reduce_alpha' must lie between 0 and 1 (e.g. 0.05) or be false, got {alpha}")
+        verification = self.table(data, "verification", ())
+        self.check_keys(verification, ("verification",), "verification")
+        report = self.table(data, "report", ())
+        self.check_keys(report, ("report",), "report")
+        reference_table = None
+        if "reference_table" in report:
+            reference_table = self.path.parent / self.string(report, "reference_table", ("report",))
+            if not reference_table.is_file():
+                raise self.error(("report", "reference_table"),
+                                 f"reference_table '{report['reference_table']}' does not exist next to the campaign file")
+
+        return Campaign(
+            path=self.path,
+            name=name,
+            description=str(description),
+            test=test,
+            profile=profile,
+            plugins=plugins,
+            settings=settings,
+            factors=factors,
+            design=design,
+            responses=responses,
+            conditions=conditions,
+            seed=self.integer(runs, "seed", ("runs",), 1, 0),
+            replicates=self.integer(runs, "replicates", ("runs",), 1, 1),
+            model_order=order,
+            reduce_alpha=reduce_alpha,
+            verification_replicates=self.integer(verification, "replicates", ("verification",), 3, 0),
+            verification_seed=self.integer(verification, "seed", ("verification",), 100_000, 0),
+            executor=self.executor(),
+            workdir=workdir,
+            title=str(report.get("title", name)),
+            reference_table=reference_table,
+        )
+
+    def lab_records(self, meta: Mapping) -> dict:
+        """Lab records of the file named by ``[campaign] lab`` (one table per sample)."""
+        if "lab" not in meta:
+            return {}
+        from demcal.measure.lab import LabRecord
+
+        name = self.string(meta, "lab", ("campaign",))
+        path = self.path.parent / name
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise self.error(("campaign", "lab"), f"lab file '{name}' does not exist next to the campaign file") from None
+        except (OSError, tomllib.TOMLDecodeError) as exc:
+            raise self.error(("campaign", "lab"), f"lab file '{name}' cannot be read ({exc})") from None
+        lines = _key_lines(path.read_text(encoding="utf-8"))
+        records = {}
+        for key, table in data.items():
+            where = f"{path.name} line {lines.get((key,), '?')} [{key}]"
+            records[key] = LabRecord.from_dict(table, where)
+        return records
+
+    def experiment(self):
+        from demcal.bench.registry import get_experiment
+
+        where = ("experiment",)
+        data = self.table(self.data, "experiment", (), required=True)
+        self.check_keys(data, where, "experiment")
+        plugins = data.get("plugins", [])
+        if not isinstance(plugins, list) or not all(isinstance(p, str) for p in plugins):
+            raise self.error(where + ("plugins",), "'plugins' must be a list of module names")
+        for module in plugins:
+            try:
+                importlib.import_module(module)
+            except ImportError as exc:
+                raise self.error(where + ("plugins",), f"plugin module '{module}' cannot be imported ({exc})") from None
+        test = self.string(data, "test", where)
+        try:
+            experiment = get_experiment(test)
+        except ConfigError as exc:
+            raise self.error(where + ("test",), str(exc)) from None
+        profiles = tuple(experiment.profiles)
+        profile = self.choice(data, "profile", where, profiles, "quick" if "quick" in profiles else profiles[0])
+        settings = dict(self.table(data, "settings", where))
+        table = experiment.settings(profile)
+        for key, value in settings.items():
+            self.check_setting(experiment, table, profile, key, value, where + ("settings", key))
+        return experiment, test, profile, tuple(plugins), settings
+
+    def check_setting(self, experiment, table, profile, key, value, where) -> None:
+        from demcal.bench.registry import resolve_settings
+
+        if key not in table:
+            near = difflib.get_close_matches(key, list(table), n=1, cutoff=0.6)
+            hint = f"did you mean '{near[0]}'?" if near else f"`demcal bench {experiment.name} --help` lists them"
+            raise self.error(where, f"'{key}' is not a setting of {experiment.name}; {hint}")
+        if _is_restitution(key) and isinstance(value, (int, float)) and not 0 < value <= 1:
+            raise self.error(where, f"'{key}' = {value} is a coefficient of restitution and must lie in (0, 1]")
+        try:
+            resolve_settings(experiment, {key: value}, profile)
+        except ConfigError as exc:
+            raise self.error(where, str(exc)) from None
+
+    def factors(self, experiment, table, profile) -> tuple[Factor, ...]:
+        raw = self.array_of_tables("factors")
+        if not raw:
+            raise self.error(("factors",), "a campaign needs at least one [[factors]] table")
+        factors, names, parameters = [], set(), set()
+        for i, data in enumerate(raw):
+            where = ("factors", i)
+            self.check_keys(data, where, "factors[]")
+            parameter = self.string(data, "parameter", where)
+            name = self.string(data, "name", where, default_names(len(raw))[i])
+            if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
+                raise self.error(where + ("name",), f"factor name '{name}' must be a letter followed by letters, digits or _")
+            if name in names:
+                raise self.error(where + ("name",), f"factor name '{name}' is used twice; give each factor its own")
+            if parameter in parameters:
+                raise self.error(where + ("parameter",), f"parameter '{parameter}' is a factor twice; keep one")
+            names.add(name)
+            parameters.add(parameter)
+            low = self.number(data, "low", where)
+            high = self.number(data, "high", where)
+            if low >= high:
+                raise self.error(where + ("low",), f"factor '{parameter}' has low {low:g} >= high {high:g}; swap them")
+            if parameter not in table:
+                near = difflib.get_close_matches(parameter, list(table), n=1, cutoff=0.6)
+                hint = f"did you mean '{near[0]}'?" if near else f"`demcal bench {experiment.name} --help` lists them"
+                raise self.error(where + ("parameter",),
+                                 f"factor parameter '{parameter}' is not a setting of {experiment.name}; {hint}")
+            for level, value in (("low", low), ("high", high)):
+                if _is_restitution(parameter) and not 0 < value <= 1:
+                    raise self.error(where + (level,),
+                                     f"factor '{parameter}' has {level} {value:g}, but a coefficient of restitution must lie in (0, 1]")
+                self.check_setting(experiment, table, profile, parameter, value, where + (level,))
+            unit = data.get("unit", table[parameter].unit)
+            factors.append(Factor(name=name, parameter=parameter, low=low, high=high,
+                                  label=str(data.get("label", parameter)), unit=str(unit)))
+        return tuple(factors)
+
+    def design(self, k: int) -> DesignConfig:
+        where = ("design",)
+        data = self.table(self.data, "design", ())
+        self.check_keys(data, where, "design")
+        kind = self.string(data, "type", where, "box-behnken")
+        center = data.get("center")
+        if center is not None:
+            center = self.integer(data, "center", where, 0, 0)
+        options = {key: value for key, value in data.items() if key not in ("type", "center")}
+        try:
+            from demcal.campaign.runner import design_matrix
+
+            design_matrix(DesignConfig(kind, center, options), k)
+        except ConfigError as exc:
+            raise self.error(where + ("type",), str(exc)) from None
+        return DesignConfig(type=kind, center=center, options=options)
+
+    def responses(self, experiment) -> tuple[Response, ...]:
+        raw = self.array_of_tables("responses")
+        known = tuple(experiment.responses)
+        if not raw:
+            return (Response(name=known[0]),)
+        responses = []
+        for i, data in enumerate(raw):
+            where = ("responses", i)
+            self.check_keys(data, where, "responses[]")
+            name = self.string(data, "name", where)
+            if name not in known:
+                near = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+                hint = f"did you mean '{near[0]}'?" if near else f"it measures: {', '.join(known)}"
+                raise self.error(where + ("name",), f"{experiment.name} has no response '{name}'; {hint}")
+            responses.append(Response(name=name, label=str(data.get("label", name)), unit=str(data.get("unit", ""))))
+        return tuple(responses)
+
+    def conditions(self, responses, factors) -> tuple[Condition, ...]:
+        raw = self.array_of_tables("conditions")
+        if not raw:
+            raise self.error(("conditions",), "a campaign needs at least one [[conditions]] table with its targets")
+        conditions, names = [], set()
+        for i, data in enumerate(raw):
+            where = ("conditions", i)
+            self.check_keys(data, where, "conditions[]")
+            name = self.string(data, "name", where)
+            if name in names:
+                raise self.error(where + ("name",), f"condition '{name}' appears twice; give each its own name")
+            names.add(name)
+            sample = None
+            if "sample" in data:
+                key = self.string(data, "sample", where)
+                if key not in self.samples:
+                    known = ", ".join(self.samples) or "none (set [campaign] lab)"
+                    raise self.error(where + ("sample",), f"sample '{key}' is not in the lab file; samples: {known}")
+                sample = self.samples[key]
+            targets_data = dict(self.table(data, "targets", where))
+            if sample is not None:
+                from demcal.measure.lab import resolve_targets
+
+                for response, angle in resolve_targets(sample, self.path.parent).items():
+                    if response in {r.name for r in responses} and response not in targets_data:
+                        sd = angle.sd_deg if math.isfinite(angle.sd_deg) else None
+                        targets_data[response] = {"mean": angle.mean_deg} | ({"sd": sd} if sd is not None else {})
+            targets = []
+            for key, value in targets_data.items():
+                if key not in {r.name for r in responses}:
+                    near = difflib.get_close_matches(key, [r.name for r in responses], n=1, cutoff=0.5)
+                    hint = f"did you mean '{near[0]}'?" if near else f"the campaign's responses are: {', '.join(r.name for r in responses)}"
+                    raise self.error(where + ("targets", key), f"condition '{name}' has a target for unknown response '{key}'; {hint}")
+                if isinstance(value, dict):
+                    self.check_keys(value, where + ("targets", key), "conditions[].targets.*")
+                    mean = self.number(value, "mean", where + ("targets", key))
+                    sd = value.get("sd")
+                    if sd is not None:
+                        sd = self.number(value, "sd", where + ("targets", key))
+                        if sd < 0:
+                            raise self.error(where + ("targets", key, "sd"), f"target sd of '{key}' must not be negative")
+                else:
+                    mean = self.number(targets_data, key, where + ("targets",))
+                    sd = None
+                targets.append(Target(response=key, mean=mean, sd=sd))
+            for response in responses:
+                if response.name not in targets_data:
+                    raise self.error(
+                        where,
+                        f"condition '{name}' has no target for response '{response.name}'; add "
+                        f"[conditions.targets] {response.name} = {{ mean = ..., sd = ... }} "
+                        f"or a sample whose lab record gives it",
+                    )
+            reference = dict(self.table(data, "reference", where))
+            valid = {f.parameter for f in factors} | {f.name for f in factors}
+            for key, value in reference.items():
+                if key not in valid:
+                    near = difflib.get_close_matches(key, sorted(valid), n=1, cutoff=0.6)
+                    hint = f"did you mean '{near[0]}'?" if near else "use a factor's parameter"
+                    raise self.error(where + ("reference", key), f"reference value '{key}' is not a factor; {hint}")
+                self.number(reference, key, where + ("reference",))
+            by_name = {f.name: f.parameter for f in factors}
+            reference = {by_name.get(k, k): float(v) for k, v in reference.items()}
+            photo = None
+            if "photo" in data:
+                photo = self.path.parent / self.string(data, "photo", where)
+                if not photo.is_file():
+                    raise self.error(where + ("photo",), f"photo '{data['photo']}' does not exist next to the campaign file")
+            conditions.append(Condition(name=name, label=str(data.get("label", name)),
+                                        targets=tuple(targets), reference=reference, photo=photo,
+                                        sample=sample))
+        return tuple(conditions)
+
+    def executor(self) -> ExecutorConfig:
+        where = ("executor",)
+        data = self.table(self.data, "executor", ())
+        self.check_keys(data, where, "executor")
+        kind = self.choice(data, "kind", where, _EXECUTOR_KINDS, "local")
+        scheduler = data.get("scheduler")
+        if scheduler is not None:
+            scheduler = self.string(data, "scheduler", where)
+        timeout = self.number(data, "heartbeat_timeout_s", where, 120.0)
+        if timeout <= 0:
+            raise self.error(where + ("heartbeat_timeout_s",), "'heartbeat_timeout_s' must be positive")
+        return ExecutorConfig(
+            kind=kind,
+            workers=self.integer(data, "workers", where, 0, 0),
+            scheduler=scheduler,
+            start_method=self.choice(data, "start_method", where, _START_METHODS, "spawn"),
+            heartbeat_timeout_s=timeout,
+        )
+
+
+def _is_restitution(key: str) -> bool:
+    return key.rsplit(".", 1)[-1] == "restitution"
+
+
+def _dotted(where: tuple) -> str:
+    return ".".join(str(p) for p in where if not isinstance(p, int))
+
+
+def _table_name(where: tuple) -> str:
+    if not where:
+        return ""
+    if len(where) >= 2 and isinstance(where[1], int):
+        head = f"[[{where[0]}]] #{where[1] + 1}"
+        rest = _dotted(where[2:])
+        return f"{head} {rest}".strip() if rest else head
+    return f"[{_dotted(where)}]"
+
+
+# --------------------------------------------------------------- key -> line map
+
+_HEADER = re.compile(r"^\s*(\[\[?)\s*(.+?)\s*(\]\]?)\s*(?:#.*)?$")
+_KEY_PART = r'(?:[A-Za-z0-9_-]+|"(?:[^"\\]|\\.)*"|\'[^\']*\')'
+_KEY = re.compile(rf"^\s*({_KEY_PART}(?:\s*\.\s*{_KEY_PART})*)\s*=")
+_INLINE_KEY = re.compile(rf"[{{,]\s*({_KEY_PART})\s*=")
+
+
+def _split_key(key: str) -> tuple[str, ...]:
+    parts = re.findall(_KEY_PART, key)
+    return tuple(p[1:-1] if p[:1] in "\"'" else p for p in parts)
+
+
+def _key_lines(text: str) -> dict[tuple, int]:
+    """Map each table and key path (array indices included) to its 1-based line.
+
+    ``tomllib`` keeps no positions, so this scans the text once: table headers,
+    ``key = value`` lines and the keys of one-line inline tables. Lines inside
+    multi-line arrays and strings are skipped. Good enough to point a user at the
+    line of a mistake; the parse itself is ``tomllib``'s.
+    """
+    lines: dict[tuple, int] = {}
+    counts: dict[tuple, int] = {}
+    current: tuple = ()
+    depth = 0  # open brackets of a multi-line array
+    in_string = False
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw
+        if in_string:
+            if '"""' in line or "'''" in line:
+                in_string = False
+            continue
+        if depth > 0:
+            depth += _bracket_balance(line)
+            continue
+        header = _HEADER.match(line)
+        if header and not _KEY.match(line):
+            parts = _split_key(header.group(2))
+            path = _with_indices(parts, counts)
+            if header.group(1) == "[[":
+                counts[parts] = counts.get(parts, -1) + 1
+                path = _with_indices(parts, counts)
+            current = path
+            lines.setdefault(path, number)
+            continue
+        key = _KEY.match(line)
+        if not key:
+            continue
+        path = current + _split_key(key.group(1))
+        lines.setdefault(path, number)
+        value = line[key.end():]
+        for inner in _INLINE_KEY.finditer(value):
+            lines.setdefault(path + _split_key(inner.group(1)), number)
+        if value.count('"""') == 1 or value.count("'''") == 1:
+            in_string = True
+        depth = max(0, _bracket_balance(value))
+    return lines
+
+
+def _with_indices(parts: tuple[str, ...], counts: dict[tuple, int]) -> tuple:
+    """Insert the current index after each prefix that names an array of tables."""
+    path: list = []
+    for i in range(len(parts)):
+        path.append(parts[i])
+        prefix = parts[: i + 1]
+        if prefix in counts:
+            path.append(counts[prefix])
+    return tuple(path)
+
+
+def _bracket_balance(text: str) -> int:
+    text = re.sub(r'"(?:[^"\\]|\\.)*"|\'[^\']*\'', "", text)
+    text = text.split("#", 1)[0]
+    return text.count("[") - text.count("]")

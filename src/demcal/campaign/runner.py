@@ -1,0 +1,324 @@
+"""Plan a campaign's runs, fill the store, run what is pending in parallel.
+
+``demcal run campaign.toml`` = :func:`plan_design` + :func:`run_specs`: each
+design point (and replicate) becomes a :class:`~demcal.campaign.store.RunSpec`
+with its own seed; the store skips what is already done; pending runs are claimed
+one at a time as workers free up, so several runners can share one store; a
+progress bar shows done / failed / remaining and the ETA. Verification runs of
+``demcal calibrate`` go through the same :func:`run_specs`.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from demcal.campaign.config import Campaign, DesignConfig
+from demcal.campaign.store import RunRecord, RunSpec, Store
+from demcal.errors import ConfigError
+
+#: Seconds between heartbeats of a runner's claims (stale after ``heartbeat_timeout_s``).
+HEARTBEAT_S = 5.0
+
+#: ``[design] type`` names and their aliases.
+DESIGN_TYPES = {
+    "box-behnken": "box-behnken", "bbd": "box-behnken",
+    "central-composite": "central-composite", "ccd": "central-composite",
+    "full-factorial": "full-factorial", "factorial": "full-factorial",
+    "fractional-factorial": "fractional-factorial",
+    "plackett-burman": "plackett-burman",
+}
+
+
+def design_matrix(design: DesignConfig, k: int) -> np.ndarray:
+    """The coded ``(runs, k)`` matrix of a ``[design]`` table, in standard order."""
+    from demcal.doe import designs
+
+    kind = DESIGN_TYPES.get(design.type)
+    if kind is None:
+        import difflib
+
+        near = difflib.get_close_matches(design.type, list(DESIGN_TYPES), n=1, cutoff=0.5)
+        hint = f"did you mean '{near[0]}'?" if near else f"choose one of: {', '.join(sorted(set(DESIGN_TYPES.values())))}"
+        raise ConfigError(f"unknown design type '{design.type}'; {hint}")
+    options = dict(design.options)
+    allowed = {
+        "box-behnken": set(),
+        "central-composite": {"variant", "alpha", "fraction"},
+        "full-factorial": {"levels"},
+        "fractional-factorial": {"fraction"},
+        "plackett-burman": {"runs"},
+    }[kind]
+    extra = sorted(set(options) - allowed)
+    if extra:
+        raise ConfigError(f"option '{extra[0]}' does not apply to a {kind} design")
+    center = design.center
+    if kind == "box-behnken":
+        matrix = designs.box_behnken(k, 5 if center is None else center)
+    elif kind == "central-composite":
+        matrix = designs.central_composite(k, options.get("variant", "circumscribed"),
+                                           options.get("alpha", "rotatable"),
+                                           6 if center is None else center, int(options.get("fraction", 0)))
+    else:
+        if kind == "full-factorial":
+            matrix = designs.full_factorial([int(options.get("levels", 2))] * k)
+        elif kind == "fractional-factorial":
+            matrix = designs.fractional_factorial(k, int(options.get("fraction", 1)))
+        else:
+            matrix = designs.plackett_burman(k, options.get("runs"))
+        if center:
+            matrix = np.vstack([matrix, np.zeros((center, k))])
+    return np.asarray(matrix, dtype=float)
+
+
+def _round(value: float) -> float:
+    """Actual levels without binary noise (0.6000000000000001 -> 0.6)."""
+    return float(f"{value:.12g}")
+
+
+def point_settings(campaign: Campaign, parameters: dict[str, float]) -> dict[str, Any]:
+    """Every override of one run: the fixed settings plus the factor values."""
+    settings = dict(campaign.settings)
+    settings.update(parameters)
+    return settings
+
+
+@dataclass(frozen=True)
+class DesignPlan:
+    """The design points of a campaign and the runs that simulate them."""
+
+    coded: np.ndarray  #: (points, k) coded levels, standard order
+    specs: tuple[RunSpec, ...]  #: point-major: all replicates of point 1, then point 2, ...
+    points: tuple[int, ...]  #: 0-based design point of each spec
+    replicates: tuple[int, ...]  #: 0-based replicate of each spec
+
+
+def plan_design(campaign: Campaign) -> DesignPlan:
+    """One run per design point and replicate, each with its own seed.
+
+    Seeds are ``seed + replicate * points + point``: the centre points get
+    different seeds, so their spread is the simulation's own noise (the pure error
+    of the ANOVA).
+    """
+    from demcal.bench.registry import get_experiment, resolve_settings
+
+    coded = design_matrix(campaign.design, len(campaign.factors))
+    experiment = get_experiment(campaign.test)
+    n = coded.shape[0]
+    specs, points, replicates = [], [], []
+    for i, row in enumerate(coded):
+        parameters = {f.parameter: _round(f.to_actual(c)) for f, c in zip(campaign.factors, row)}
+        settings = point_settings(campaign, parameters)
+        try:
+            resolve_settings(experiment, settings, campaign.profile)
+        except ConfigError as exc:
+            raise ConfigError(f"{campaign.path.name}: design point {i + 1} is not a valid run: {exc}") from None
+        for r in range(campaign.replicates):
+            label = f"design {i + 1}" + (f" r{r + 1}" if campaign.replicates > 1 else "")
+            specs.append(RunSpec("design", label, campaign.test, campaign.profile, parameters, settings,
+                                 campaign.seed + r * n + i))
+            points.append(i)
+            replicates.append(r)
+    return DesignPlan(coded, tuple(specs), tuple(points), tuple(replicates))
+
+
+def open_store(campaign: Campaign) -> Store:
+    """The campaign's store, created on first use; records the campaign file's text."""
+    from demcal import __version__
+
+    store = Store(campaign.store_path)
+    try:
+        source = campaign.path.read_text(encoding="utf-8")
+    except OSError:
+        source = ""
+    store.record_campaign(campaign.name, source, __version__)
+    return store
+
+
+@dataclass
+class RunSummary:
+    """What one call of :func:`run_specs` did."""
+
+    total: int
+    done: int = 0  #: done in the store after the call (this call's and earlier)
+    failed: int = 0
+    ran: int = 0  #: runs this call executed
+    skipped: int = 0  #: already done before the call
+    elsewhere: int = 0  #: still running in another runner
+    elapsed_s: float = 0.0
+    executor: str = ""
+    failures: list[tuple[str, str]] = field(default_factory=list)  #: (label, error)
+
+    def sentence(self, name: str) -> str:
+        parts = [f"{name}: {self.done} of {self.total} runs done"]
+        if self.failed:
+            parts.append(f"{self.failed} failed (rerun with --retry-failed)")
+        if self.elsewhere:
+            parts.append(f"{self.elsewhere} still running in another runner")
+        if self.ran:
+            parts.append(f"{self.ran} run now in {self.elapsed_s / 60:.1f} min on {self.executor}")
+        if self.skipped:
+            parts.append(f"{self.skipped} already done")
+        return "; ".join(parts) + "."
+
+
+def run_specs(
+    campaign: Campaign,
+    specs: Sequence[RunSpec],
+    *,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    retry_failed: bool = False,
+    progress: bool = True,
+    executor=None,
+    desc: str | None = None,
+) -> RunSummary:
+    """Run every spec not yet done; keep going through failures; resumable.
+
+    Parameters
+    ----------
+    workers : processes (None: the campaign's ``[executor] workers``, 0: one per core).
+    scheduler : a Dask scheduler address; overrides the campaign's executor.
+    retry_failed : put failed runs back to pending first.
+    executor : an executor to reuse (not closed here).
+    """
+    from demcal.campaign.executors import engine_version, make_executor
+
+    unique: dict[str, RunSpec] = {}
+    for spec in specs:
+        unique.setdefault(spec.key, spec)
+    keys = list(unique)
+    summary = RunSummary(total=len(keys))
+    store = open_store(campaign)
+    own_executor = executor is None
+    try:
+        store.add(unique.values())
+        if retry_failed:
+            store.retry_failed(keys)
+        store.reclaim_stale(campaign.executor.heartbeat_timeout_s)
+        before = store.counts(keys)
+        summary.skipped = before["done"]
+        if before["pending"]:
+            if executor is None:
+                config = campaign.executor
+                executor = make_executor(
+                    config.kind, config.workers if workers is None else workers,
+                    scheduler or config.scheduler, config.start_method, campaign.plugins)
+            summary.executor = executor.description
+            _drain(store, unique, executor, summary, campaign, progress, desc or campaign.name,
+                   before, engine_version)
+        after = store.counts(keys)
+        summary.done, summary.failed, summary.elsewhere = after["done"], after["failed"], after["running"]
+        summary.failures = [(r.label, r.error or "") for r in store.records(keys) if r.status == "failed"]
+    finally:
+        if own_executor and executor is not None:
+            executor.close()
+        store.close()
+    return summary
+
+
+def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummary, campaign: Campaign,
+           progress: bool, desc: str, before: dict[str, int], engine_version) -> None:
+    from tqdm import tqdm
+
+    keys = list(specs)
+    in_flight: dict[Any, RunRecord] = {}
+    failed = before["failed"]
+    bar = tqdm(total=len(keys), initial=before["done"] + before["failed"], desc=desc, unit="run",
+               disable=not progress, file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
+
+    def advance(step: int) -> None:
+        remaining = len(keys) - bar.n - step
+        bar.set_postfix_str(f"failed={failed} remaining={remaining}", refresh=False)
+        bar.update(step)
+
+    advance(0)
+    start = time.perf_counter()
+    beat = time.monotonic()
+    try:
+        while True:
+            while len(in_flight) < executor.workers:
+                record = store.claim(keys)
+                if record is None:
+                    break
+                spec = specs[record.key]
+                task = {
+                    "test": spec.test, "profile": spec.profile, "settings": dict(spec.settings),
+                    "seed": spec.seed, "plugins": list(campaign.plugins), "label": spec.label,
+                    "runs_dir": str(store.runs_dir.resolve()), "name": spec.dirname,
+                }
+                in_flight[executor.submit(task)] = record
+            if not in_flight:
+                break
+            for handle, outcome in executor.wait(list(in_flight), timeout=HEARTBEAT_S):
+                record = in_flight.pop(handle)
+                version = outcome.get("engine_version") or engine_version()
+                if outcome.get("ok"):
+                    store.finish(record.id, outcome["result"], outcome.get("artifacts_dir"), version)
+                else:
+                    failed += 1
+                    store.fail(record.id, outcome.get("error", "unknown error"), version, outcome.get("wall_s"))
+                    bar.write(f"{record.label} failed: {outcome.get('error')}")
+                summary.ran += 1
+                advance(1)
+            if time.monotonic() - beat > HEARTBEAT_S:
+                store.heartbeat()
+                beat = time.monotonic()
+    except BaseException:
+        # Ctrl-C or an error of the runner itself: hand the claims back at once so the
+        # next runner need not wait for them to go stale.
+        store.release([record.id for record in in_flight.values()])
+        executor.close(cancel=True)
+        raise
+    finally:
+        bar.close()
+        summary.elapsed_s = time.perf_counter() - start
+
+
+def run_campaign(campaign: Campaign, *, workers: int | None = None, scheduler: str | None = None,
+                 retry_failed: bool = False, progress: bool = True, executor=None) -> RunSummary:
+    """Simulate every design point of ``campaign`` (what ``demcal run`` does)."""
+    plan = plan_design(campaign)
+    return run_specs(campaign, plan.specs, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
+                     progress=progress, executor=executor, desc=f"{campaign.name} design")
+
+
+def design_results(campaign: Campaign, store: Store | None = None) -> pd.DataFrame:
+    """The design with its results: one row per run, standard order.
+
+    Columns: ``run`` (standard order, 1-based), ``replicate``, one coded column per
+    factor (its name, e.g. ``A``), one actual column per factor (its parameter key),
+    ``seed``, ``status``, each response, ``wall_s``, ``key``, ``artifacts_dir``.
+    Runs not done have NaN responses.
+    """
+    plan = plan_design(campaign)
+    own = store is None
+    if own:
+        store = Store(campaign.store_path, readonly=True)
+    try:
+        records = {r.key: r for r in store.records([s.key for s in plan.specs])}
+    finally:
+        if own:
+            store.close()
+    rows = []
+    for spec, point, replicate in zip(plan.specs, plan.points, plan.replicates):
+        record = records.get(spec.key)
+        row: dict[str, Any] = {"run": point + 1, "replicate": replicate + 1}
+        for factor, coded in zip(campaign.factors, plan.coded[point]):
+            row[factor.name] = float(coded)
+        row.update(spec.parameters)
+        row["seed"] = spec.seed
+        row["status"] = record.status if record else "missing"
+        for response in campaign.response_names:
+            value = record.responses.get(response) if record and record.status == "done" else None
+            row[response] = float(value) if value is not None else np.nan
+        row["wall_s"] = record.wall_s if record else np.nan
+        row["key"] = spec.key
+        row["artifacts_dir"] = record.artifacts_dir if record else None
+        rows.append(row)
+    return pd.DataFrame(rows)

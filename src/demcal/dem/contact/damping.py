@@ -1,0 +1,37 @@
+"""Normal damping sub-models.
+
+All are viscous, ``fd = c_factor * beta * sqrt(k m*) * vn`` with
+``beta = ln e / sqrt(ln^2 e + pi^2)`` (< 0), ``vn`` the normal relative velocity
+(negative while approaching) and ``k`` the stiffness returned by the normal slot, so
+``fd`` opposes the normal motion:
+
+* ``tsuji`` (EDEM Hertz-Mindlin, after Tsuji et al. 1992): c_factor = 2 sqrt(5/6),
+  k = Sn. Unclamped, this gives exactly restitution e for the Hertz spring
+  (Antypov & Elliott 2011, EPL 94, 50004), which the tests check.
+* ``hysteretic`` (paper Eq. 3, second line, solved for F_n^d): c_factor = 2 zeta,
+  k = K1 while loading and K2 while unloading. zeta = 0 leaves only the hysteresis,
+  whose restitution is exactly e = sqrt(K1/K2) at any impact speed.
+* ``viscous`` (linear spring-dashpot): c_factor = 2, giving restitution e exactly.
+"""
+
+import math
+
+from numba import njit
+
+from .registry import DAMPING_HYSTERETIC, DAMPING_TSUJI, DAMPING_VISCOUS
+
+SQRT_5_6 = math.sqrt(5.0 / 6.0)
+
+
+@njit(cache=True)
+def normal_damping(model, beta, zeta, k, m_eff, vn):
+    """Damping force [N] along the normal (positive = repulsive)."""
+    if k <= 0.0:
+        return 0.0
+    if model == DAMPING_TSUJI:
+        return 2.0 * SQRT_5_6 * beta * math.sqrt(k * m_eff) * vn
+    if model == DAMPING_HYSTERETIC:
+        return 2.0 * zeta * beta * math.sqrt(k * m_eff) * vn
+    if model == DAMPING_VISCOUS:
+        return 2.0 * beta * math.sqrt(k * m_eff) * vn
+    return 0.0

@@ -1,0 +1,76 @@
+"""One contact, all four slots: the kernel the pair and wall drivers call.
+
+History row layout (``HIST_WIDTH`` float64 per contact): 0:3 tangential displacement
+[m], 3 residual overlap delta0 [m] (Hysteretic Spring), 4:7 rolling spring torque
+[N m] (type C), 7 unused.
+"""
+
+from numba import njit
+
+from demcal.particles.materials import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR,
+                                        P_MU_R, P_MU_S, P_XI, P_YMIN, P_ZETA)
+
+from .damping import normal_damping
+from .normal import loading_stiffness, normal_force
+from .registry import NORMAL_HYSTERETIC
+from .rolling import rolling_torque
+from .tangential import tangential_force
+
+HIST_WIDTH = 8
+H_DELTA0 = 3
+
+
+@njit(cache=True)
+def reset_history(hist, h):
+    for k in range(HIST_WIDTH):
+        hist[h, k] = 0.0
+
+
+@njit(cache=True)
+def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
+            vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
+            lever_i, lever_j, r_eff, m_eff, inv_ir, dt):
+    """Force on i and rolling torques on i and j for one overlapping contact.
+
+    Parameters
+    ----------
+    models : int64[4]
+        Sub-model ids (normal, damping, tangential, rolling), see ``registry``.
+    table : float64[nmat, nmat, N_PAIR_PARAMS]
+        Material-pair constants (``demcal.particles.materials.pair_table`` columns).
+    delta : float
+        Overlap [m] > 0. ``n`` is the unit normal pointing from j to i.
+    vr : relative velocity of i with respect to j at the contact point [m/s].
+    wi, wj : angular velocities [rad/s]. lever_i, lever_j: centre of mass to contact
+        point distances [m]. r_eff, m_eff: R* [m], m* [kg]. inv_ir: inverse rolling
+        inertia 1/I_r [1/(kg m2)] (Ai et al. 2011 Eq. 15).
+
+    Returns
+    -------
+    (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz)
+        Contact force on i [N] (j gets the opposite) and the rolling torques [N m].
+    """
+    p = table[mi, mj]
+    e = p[P_E]
+    beta = p[P_BETA]
+    vn = vrx * nx + vry * ny + vrz * nz
+    fs, k, d0 = normal_force(models[0], delta, hist[h, H_DELTA0], r_eff, p[P_ESTAR],
+                             p[P_YMIN], e)
+    hist[h, H_DELTA0] = d0
+    fd = normal_damping(models[1], beta, p[P_ZETA], k, m_eff, vn)
+    fn = fs + fd
+    if models[0] == NORMAL_HYSTERETIC and fn < 0.0:
+        fn = 0.0
+    vtx = vrx - vn * nx
+    vty = vry - vn * ny
+    vtz = vrz - vn * nz
+    k1 = loading_stiffness(r_eff, p[P_YMIN])
+    ftx, fty, ftz = tangential_force(models[2], hist, h, nx, ny, nz, vtx, vty, vtz, dt,
+                                     delta, r_eff, m_eff, p[P_GSTAR], beta, k1, p[P_XI],
+                                     p[P_MU_S], fn)
+    fpos = fn if fn > 0.0 else 0.0
+    kr = k if k > 0.0 else k1
+    tix, tiy, tiz, tjx, tjy, tjz = rolling_torque(
+        models[3], hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
+        lever_i, lever_j, r_eff, p[P_MU_R], fpos, kr, p[P_ETA_R], inv_ir, dt)
+    return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz)

@@ -1,0 +1,62 @@
+"""Normal-force sub-models (elastic/plastic part, without damping).
+
+Each returns ``(fn, k, delta0)``: the spring force [N] (positive = repulsive), the
+stiffness ``k`` [N/m] the damping slot uses, and the updated residual overlap [m].
+
+* Hertz (EDEM manual, Hertz-Mindlin no slip): ``fn = 4/3 E* sqrt(R*) delta^1.5``,
+  ``k = Sn = 2 E* sqrt(R* delta)``.
+* Hysteretic spring (Walton & Braun 1986; EDEM HSCM; paper Eq. 1-2):
+  ``K1 = 5 R* min(Y_i, Y_j)``, ``K2 = K1 / e^2``,
+  ``fn = max(0, min(K1 delta, K2 (delta - delta0)))``. On the loading branch the
+  residual overlap follows ``delta0 = delta (1 - K1/K2)`` (the point where the unloading
+  line from the current state meets fn = 0); on unloading/reloading it stays fixed.
+  ``k`` is the branch slope (K1 loading, K2 unloading), 0 once the spring is slack.
+  The engine resets ``delta0`` to 0 when the contact opens.
+* Linear spring (EDEM linear spring uses the yield strength too): ``k = 5 R* Y``,
+  ``fn = k delta``.
+"""
+
+import math
+
+from numba import njit
+
+from .registry import NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR
+
+
+@njit(cache=True)
+def hertz(delta, r_eff, estar):
+    sq = math.sqrt(r_eff * delta)
+    return 4.0 / 3.0 * estar * sq * delta, 2.0 * estar * sq
+
+
+@njit(cache=True)
+def hysteretic(delta, delta0, r_eff, ymin, e):
+    k1 = 5.0 * r_eff * ymin
+    k2 = k1 / (e * e)
+    f1 = k1 * delta
+    f2 = k2 * (delta - delta0)
+    if f1 <= f2:
+        return f1, k1, delta * (1.0 - k1 / k2)
+    if f2 > 0.0:
+        return f2, k2, delta0
+    return 0.0, 0.0, delta0
+
+
+@njit(cache=True)
+def normal_force(model, delta, delta0, r_eff, estar, ymin, e):
+    """Dispatch on the normal slot; see the module docstring."""
+    if model == NORMAL_HERTZ:
+        fn, k = hertz(delta, r_eff, estar)
+        return fn, k, delta0
+    if model == NORMAL_HYSTERETIC:
+        return hysteretic(delta, delta0, r_eff, ymin, e)
+    if model == NORMAL_LINEAR:
+        k = 5.0 * r_eff * ymin
+        return k * delta, k, delta0
+    return 0.0, 0.0, delta0
+
+
+@njit(cache=True)
+def loading_stiffness(r_eff, ymin):
+    """K1 = 5 R* min(Y_i, Y_j) [N/m] (Walton 2006, EDEM HSCM)."""
+    return 5.0 * r_eff * ymin

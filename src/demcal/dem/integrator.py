@@ -1,0 +1,209 @@
+"""Velocity Verlet for rigid bodies made of spheres.
+
+One step of length dt (as in LIGGGHTS ``nve/sphere`` and ``rigid``):
+
+1. ``drift``: half kick ``v += dt/2 F/m``, ``L += dt/2 T`` with the forces of the last
+   evaluation, then ``x += dt v`` and the free rotation of the orientation over dt; the
+   world positions of the spheres are refreshed and their squared displacement since the
+   last neighbour build is written for the skin test.
+2. forces at the new positions (``forces.py``), with the half-step velocities.
+3. ``gather_kick``: sum the pair and wall contributions per body (fixed order, so the
+   result does not depend on the number of threads), add gravity and kick again.
+
+Rotation keeps the angular momentum ``L`` in the world frame. A body with equal
+principal moments (a sphere) rotates about ``w = L / I`` exactly. Any other body uses
+the symplectic splitting of the free rigid body of Dullweber, Leimkuhler & McLachlan
+(1997, J. Chem. Phys. 107, 5840): with ``L_b`` in the principal frame, rotations
+about body axes 1, 2, 3, 2, 1 over dt/2, dt/2, dt, dt/2, dt/2; each is exact, keeps
+``|L|`` and the world ``L`` unchanged and the scheme keeps the energy error bounded.
+Quaternions are (w, x, y, z) and map body to world.
+"""
+
+import math
+
+from numba import njit
+
+
+@njit(cache=True)
+def quat_rotate(q0, q1, q2, q3, x, y, z):
+    """R(q) (x, y, z): body-frame vector to world frame."""
+    # t = 2 q_v x v ; v' = v + q0 t + q_v x t
+    tx = 2.0 * (q2 * z - q3 * y)
+    ty = 2.0 * (q3 * x - q1 * z)
+    tz = 2.0 * (q1 * y - q2 * x)
+    return (x + q0 * tx + (q2 * tz - q3 * ty),
+            y + q0 * ty + (q3 * tx - q1 * tz),
+            z + q0 * tz + (q1 * ty - q2 * tx))
+
+
+@njit(cache=True)
+def quat_rotate_inv(q0, q1, q2, q3, x, y, z):
+    """R(q)^T (x, y, z): world-frame vector to body frame."""
+    return quat_rotate(q0, -q1, -q2, -q3, x, y, z)
+
+
+@njit(cache=True)
+def quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
+
+
+@njit(cache=True)
+def _axis_rotation(k, phi, q0, q1, q2, q3, l0, l1, l2):
+    """Free rotation about principal axis k by angle phi: q <- q (x) exp(phi e_k / 2),
+    L_b <- R_k(-phi) L_b."""
+    c = math.cos(0.5 * phi)
+    s = math.sin(0.5 * phi)
+    cf = math.cos(phi)
+    sf = math.sin(phi)
+    if k == 0:
+        q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, s, 0.0, 0.0)
+        l1, l2 = cf * l1 + sf * l2, -sf * l1 + cf * l2
+    elif k == 1:
+        q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, 0.0, s, 0.0)
+        l2, l0 = cf * l2 + sf * l0, -sf * l2 + cf * l0
+    else:
+        q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, 0.0, 0.0, s)
+        l0, l1 = cf * l0 + sf * l1, -sf * l0 + cf * l1
+    return q0, q1, q2, q3, l0, l1, l2
+
+
+@njit(cache=True)
+def angular_velocity(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
+    """World angular velocity w = R diag(1/I) R^T L."""
+    if i0 == i1 and i1 == i2:
+        return lx / i0, ly / i0, lz / i0
+    b0, b1, b2 = quat_rotate_inv(q0, q1, q2, q3, lx, ly, lz)
+    return quat_rotate(q0, q1, q2, q3, b0 / i0, b1 / i1, b2 / i2)
+
+
+@njit(cache=True)
+def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
+    """Orientation after a torque-free rotation over dt (see module docstring)."""
+    if i0 == i1 and i1 == i2:
+        wx = lx / i0
+        wy = ly / i0
+        wz = lz / i0
+        w = math.sqrt(wx * wx + wy * wy + wz * wz)
+        if w == 0.0:
+            return q0, q1, q2, q3
+        a = 0.5 * w * dt
+        s = math.sin(a) / w
+        q0, q1, q2, q3 = quat_mul(math.cos(a), s * wx, s * wy, s * wz, q0, q1, q2, q3)
+    else:
+        l0, l1, l2 = quat_rotate_inv(q0, q1, q2, q3, lx, ly, lz)
+        h = 0.5 * dt
+        q0, q1, q2, q3, l0, l1, l2 = _axis_rotation(0, h * l0 / i0, q0, q1, q2, q3, l0, l1, l2)
+        q0, q1, q2, q3, l0, l1, l2 = _axis_rotation(1, h * l1 / i1, q0, q1, q2, q3, l0, l1, l2)
+        q0, q1, q2, q3, l0, l1, l2 = _axis_rotation(2, dt * l2 / i2, q0, q1, q2, q3, l0, l1, l2)
+        q0, q1, q2, q3, l0, l1, l2 = _axis_rotation(1, h * l1 / i1, q0, q1, q2, q3, l0, l1, l2)
+        q0, q1, q2, q3, l0, l1, l2 = _axis_rotation(0, h * l0 / i0, q0, q1, q2, q3, l0, l1, l2)
+    n = 1.0 / math.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    return q0 * n, q1 * n, q2 * n, q3 * n
+
+
+@njit(cache=True, nogil=True)
+def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
+          bfixed, bstart, soffset, spos, sref, dsq, lo, hi):
+    """Half kick, drift and rotation of every body; refresh sphere positions."""
+    nb = bpos.shape[0]
+    h = 0.5 * dt
+    for b in range(lo, hi):
+        if bfixed[b]:
+            for s in range(bstart[b], bstart[b + 1]):
+                dsq[s] = 0.0
+            continue
+        im = 1.0 / bmass[b]
+        for k in range(3):
+            bvel[b, k] += h * bforce[b, k] * im
+            bangmom[b, k] += h * btorque[b, k]
+            bpos[b, k] += dt * bvel[b, k]
+        i0 = binertia[b, 0]
+        i1 = binertia[b, 1]
+        i2 = binertia[b, 2]
+        q0, q1, q2, q3 = free_rotation(dt, bquat[b, 0], bquat[b, 1], bquat[b, 2], bquat[b, 3],
+                                       bangmom[b, 0], bangmom[b, 1], bangmom[b, 2], i0, i1, i2)
+        bquat[b, 0] = q0
+        bquat[b, 1] = q1
+        bquat[b, 2] = q2
+        bquat[b, 3] = q3
+        wx, wy, wz = angular_velocity(q0, q1, q2, q3, bangmom[b, 0], bangmom[b, 1],
+                                      bangmom[b, 2], i0, i1, i2)
+        bomega[b, 0] = wx
+        bomega[b, 1] = wy
+        bomega[b, 2] = wz
+        for s in range(bstart[b], bstart[b + 1]):
+            ox = soffset[s, 0]
+            oy = soffset[s, 1]
+            oz = soffset[s, 2]
+            if ox != 0.0 or oy != 0.0 or oz != 0.0:
+                ox, oy, oz = quat_rotate(q0, q1, q2, q3, ox, oy, oz)
+            spos[s, 0] = bpos[b, 0] + ox
+            spos[s, 1] = bpos[b, 1] + oy
+            spos[s, 2] = bpos[b, 2] + oz
+            ex = spos[s, 0] - sref[s, 0]
+            ey = spos[s, 1] - sref[s, 1]
+            ez = spos[s, 2] - sref[s, 2]
+            dsq[s] = ex * ex + ey * ey + ez * ez
+
+
+@njit(cache=True, nogil=True)
+def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                binertia, bfixed, bstart, row_start, pair_out, rev_start, rev_pair,
+                wall_start, wall_out, kick, lo, hi):
+    """Sum contact forces and torques per body, add gravity, half kick (if ``kick``)."""
+    nb = bvel.shape[0]
+    h = 0.5 * dt
+    for b in range(lo, hi):
+        m = bmass[b]
+        fx = m * gravity[0]
+        fy = m * gravity[1]
+        fz = m * gravity[2]
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        for s in range(bstart[b], bstart[b + 1]):
+            for p in range(row_start[s], row_start[s + 1]):
+                fx += pair_out[p, 0]
+                fy += pair_out[p, 1]
+                fz += pair_out[p, 2]
+                tx += pair_out[p, 3]
+                ty += pair_out[p, 4]
+                tz += pair_out[p, 5]
+            for q in range(rev_start[s], rev_start[s + 1]):
+                p = rev_pair[q]
+                fx -= pair_out[p, 0]
+                fy -= pair_out[p, 1]
+                fz -= pair_out[p, 2]
+                tx += pair_out[p, 6]
+                ty += pair_out[p, 7]
+                tz += pair_out[p, 8]
+            for q in range(wall_start[s], wall_start[s + 1]):
+                fx += wall_out[q, 0]
+                fy += wall_out[q, 1]
+                fz += wall_out[q, 2]
+                tx += wall_out[q, 3]
+                ty += wall_out[q, 4]
+                tz += wall_out[q, 5]
+        bforce[b, 0] = fx
+        bforce[b, 1] = fy
+        bforce[b, 2] = fz
+        btorque[b, 0] = tx
+        btorque[b, 1] = ty
+        btorque[b, 2] = tz
+        if kick and not bfixed[b]:
+            im = 1.0 / m
+            bvel[b, 0] += h * fx * im
+            bvel[b, 1] += h * fy * im
+            bvel[b, 2] += h * fz * im
+            bangmom[b, 0] += h * tx
+            bangmom[b, 1] += h * ty
+            bangmom[b, 2] += h * tz
+            wx, wy, wz = angular_velocity(bquat[b, 0], bquat[b, 1], bquat[b, 2], bquat[b, 3],
+                                          bangmom[b, 0], bangmom[b, 1], bangmom[b, 2],
+                                          binertia[b, 0], binertia[b, 1], binertia[b, 2])
+            bomega[b, 0] = wx
+            bomega[b, 1] = wy
+            bomega[b, 2] = wz

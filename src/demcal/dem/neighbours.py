@@ -1,0 +1,259 @@
+"""Linked-cell neighbour search with a skin, half lists in CSR form.
+
+A pair (i, j), i < j, of spheres of different bodies is listed when
+``|x_i - x_j| < r_i + r_j + skin``. Cells are cubes of side ``h >= 2 r_max + skin`` over
+the bounding box of the spheres (enlarged if there would be more than ``max_cells``
+cells), so any ratio of radii works (3:1 and beyond; large ratios only cost more pairs
+per cell). The list is rebuilt when some sphere has moved more than ``skin / 2`` since
+the last build (or a wall has travelled that far).
+
+Building is two passes (jax-md pattern adapted to numba): ``count_*`` fills per-sphere
+counts in parallel, the host takes the prefix sum and reallocates the CSR arrays when
+the capacity is too small (growth 1.5x), then ``fill_*`` writes the rows. Every row is
+written by one thread in a fixed order, so the list is identical for any thread count.
+Contact history is carried over a rebuild by matching pairs (``carry_history``).
+
+Wall candidates use the same CSR layout per sphere: wall rows whose distance (from
+``demcal.geometry.kernels.wall_distance``) is below ``r + skin``.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from demcal.geometry.kernels import wall_distance
+
+
+@njit(cache=True)
+def build_cells(spos, srad, skin, max_cells):
+    """Cell grid and a counting sort of the spheres into cells.
+
+    Returns ``(lo, h, dims, cell_of, cell_start, cell_order)``.
+    """
+    ns = spos.shape[0]
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(3):
+        lo[k] = np.inf
+        hi[k] = -np.inf
+    rmax = 0.0
+    for i in range(ns):
+        for k in range(3):
+            v = spos[i, k]
+            if v < lo[k]:
+                lo[k] = v
+            if v > hi[k]:
+                hi[k] = v
+        if srad[i] > rmax:
+            rmax = srad[i]
+    h = 2.0 * rmax + skin
+    dims = np.empty(3, dtype=np.int64)
+    while True:
+        total = 1
+        for k in range(3):
+            dims[k] = int((hi[k] - lo[k]) / h) + 1
+            total *= dims[k]
+        if total <= max_cells:
+            break
+        h *= 1.01 * (total / max_cells) ** (1.0 / 3.0)
+    ncell = dims[0] * dims[1] * dims[2]
+    cell_of = np.empty(ns, dtype=np.int64)
+    counts = np.zeros(ncell + 1, dtype=np.int64)
+    for i in range(ns):
+        cx = min(int((spos[i, 0] - lo[0]) / h), dims[0] - 1)
+        cy = min(int((spos[i, 1] - lo[1]) / h), dims[1] - 1)
+        cz = min(int((spos[i, 2] - lo[2]) / h), dims[2] - 1)
+        c = cx + dims[0] * (cy + dims[1] * cz)
+        cell_of[i] = c
+        counts[c + 1] += 1
+    for c in range(ncell):
+        counts[c + 1] += counts[c]
+    cell_start = counts.copy()
+    cursor = counts[:-1].copy()
+    cell_order = np.empty(ns, dtype=np.int64)
+    for i in range(ns):
+        c = cell_of[i]
+        cell_order[cursor[c]] = i
+        cursor[c] += 1
+    return lo, h, dims, cell_of, cell_start, cell_order
+
+
+@njit(cache=True, nogil=True)
+def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
+              row_start, nbr, fill, lo, hi):
+    """Count (``fill=False``, counts into ``row_start[i+1]``) or write the half list."""
+    ns = spos.shape[0]
+    d0 = dims[0]
+    d1 = dims[1]
+    d2 = dims[2]
+    for i in range(lo, hi):
+        c = cell_of[i]
+        cx = c % d0
+        cy = (c // d0) % d1
+        cz = c // (d0 * d1)
+        xi = spos[i, 0]
+        yi = spos[i, 1]
+        zi = spos[i, 2]
+        ri = srad[i] + skin
+        bi = sbody[i]
+        n = 0
+        base = 0
+        if fill:
+            base = row_start[i]
+        for dz in range(-1, 2):
+            z = cz + dz
+            if z < 0 or z >= d2:
+                continue
+            for dy in range(-1, 2):
+                y = cy + dy
+                if y < 0 or y >= d1:
+                    continue
+                for dx in range(-1, 2):
+                    x = cx + dx
+                    if x < 0 or x >= d0:
+                        continue
+                    cc = x + d0 * (y + d1 * z)
+                    for k in range(cell_start[cc], cell_start[cc + 1]):
+                        j = cell_order[k]
+                        if j <= i or sbody[j] == bi:
+                            continue
+                        ddx = spos[j, 0] - xi
+                        ddy = spos[j, 1] - yi
+                        ddz = spos[j, 2] - zi
+                        cut = ri + srad[j]
+                        if ddx * ddx + ddy * ddy + ddz * ddz < cut * cut:
+                            if fill:
+                                nbr[base + n] = j
+                            n += 1
+        if not fill:
+            row_start[i + 1] = n
+
+
+@njit(cache=True, nogil=True)
+def sort_rows(row_start, nbr, lo, hi):
+    """Sort each row by neighbour index (insertion sort; rows are short)."""
+    ns = row_start.shape[0] - 1
+    for i in range(lo, hi):
+        a = row_start[i]
+        b = row_start[i + 1]
+        for p in range(a + 1, b):
+            v = nbr[p]
+            q = p - 1
+            while q >= a and nbr[q] > v:
+                nbr[q + 1] = nbr[q]
+                q -= 1
+            nbr[q + 1] = v
+
+
+@njit(cache=True, nogil=True)
+def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, old_of_new,
+                  lo, hi):
+    """Copy each surviving pair's history row from the old list to the new one.
+
+    ``old_of_new[i]`` is the old index of new sphere i (-1 for a new sphere). Renumbering
+    is monotone (removal keeps order, insertion appends), so pair (i, j), i < j, was in
+    old row ``old_of_new[i]``.
+    """
+    ns = new_start.shape[0] - 1
+    w = new_hist.shape[1]
+    for i in range(lo, hi):
+        oi = old_of_new[i]
+        for p in range(new_start[i], new_start[i + 1]):
+            found = -1
+            if oi >= 0:
+                oj = old_of_new[new_nbr[p]]
+                if oj >= 0:
+                    for q in range(old_start[oi], old_start[oi + 1]):
+                        if old_nbr[q] == oj:
+                            found = q
+                            break
+            if found >= 0:
+                for k in range(w):
+                    new_hist[p, k] = old_hist[found, k]
+            else:
+                for k in range(w):
+                    new_hist[p, k] = 0.0
+
+
+@njit(cache=True)
+def reverse_index(row_start, nbr, rev_start, rev_pair):
+    """Transpose of the half list: for each sphere j, the pair slots where it is j."""
+    ns = row_start.shape[0] - 1
+    for j in range(ns + 1):
+        rev_start[j] = 0
+    npair = row_start[ns]
+    for p in range(npair):
+        rev_start[nbr[p] + 1] += 1
+    for j in range(ns):
+        rev_start[j + 1] += rev_start[j]
+    cursor = rev_start[:-1].copy()
+    for i in range(ns):
+        for p in range(row_start[i], row_start[i + 1]):
+            j = nbr[p]
+            rev_pair[cursor[j]] = p
+            cursor[j] += 1
+
+
+@njit(cache=True, nogil=True)
+def wall_rows(spos, srad, skin, wkind, wparams, waabb, row_start, wid, fill, lo, hi):
+    """Count or write, per sphere, the wall rows within ``r + skin``."""
+    ns = spos.shape[0]
+    nw = wkind.shape[0]
+    for i in range(lo, hi):
+        x = spos[i, 0]
+        y = spos[i, 1]
+        z = spos[i, 2]
+        reach = srad[i] + skin
+        n = 0
+        base = 0
+        if fill:
+            base = row_start[i]
+        for w in range(nw):
+            if (x < waabb[w, 0] - reach or y < waabb[w, 1] - reach or z < waabb[w, 2] - reach
+                    or x > waabb[w, 3] + reach or y > waabb[w, 4] + reach
+                    or z > waabb[w, 5] + reach):
+                continue
+            d, nx, ny, nz = wall_distance(wkind[w], wparams[w], x, y, z)
+            if d < reach:
+                if fill:
+                    wid[base + n] = w
+                n += 1
+        if not fill:
+            row_start[i + 1] = n
+
+
+def prefix_sum(row_start):
+    """In-place cumulative sum of counts stored at ``row_start[1:]``; returns the total."""
+    row_start[0] = 0
+    np.cumsum(row_start[1:], out=row_start[1:])
+    return int(row_start[-1])
+
+
+def grown(capacity: int, needed: int) -> int:
+    """New capacity when ``needed`` entries do not fit (1.5x growth)."""
+    return max(needed, int(math.ceil(1.5 * max(capacity, 16))))
+
+
+
+@njit(cache=True, nogil=True)
+def carry_wall_history(new_start, new_wid, new_hist, old_start, old_wid, old_hist,
+                       old_of_new, lo, hi):
+    """Carry wall-contact history by matching (sphere, wall row)."""
+    ns = new_start.shape[0] - 1
+    w = new_hist.shape[1]
+    for i in range(lo, hi):
+        oi = old_of_new[i]
+        for q in range(new_start[i], new_start[i + 1]):
+            found = -1
+            if oi >= 0:
+                for r in range(old_start[oi], old_start[oi + 1]):
+                    if old_wid[r] == new_wid[q]:
+                        found = r
+                        break
+            if found >= 0:
+                for k in range(w):
+                    new_hist[q, k] = old_hist[found, k]
+            else:
+                for k in range(w):
+                    new_hist[q, k] = 0.0

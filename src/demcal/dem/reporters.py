@@ -1,0 +1,175 @@
+"""Reporters: observers of a run, OpenMM style.
+
+``Simulation.run`` asks every reporter ``next_report(sim)`` (steps until it next wants
+data), advances exactly that far, then calls ``report(sim)`` on the reporters that are
+due. Optional ``start(sim, total_steps)`` and ``finish(sim)`` bracket a run. Reporters
+read ``sim.state`` and may change the simulation (add particles, tilt gravity) or raise
+to stop it. Progress, energy, blow-up detection, VTK output and checkpoints are
+reporters, not code inside the physics.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time as _time
+
+import numpy as np
+
+from demcal.errors import ConfigError, SimulationError
+
+
+class Reporter:
+    """Base class: report every ``interval`` steps (counted from the start of each run)."""
+
+    def __init__(self, interval: int):
+        if not (isinstance(interval, (int, np.integer)) and interval >= 1):
+            raise ConfigError(f"reporter interval must be a positive number of steps, "
+                              f"got {interval!r}.")
+        self.interval = int(interval)
+        self._origin = 0
+
+    def start(self, sim, total_steps):
+        self._origin = sim.step_count
+
+    def next_report(self, sim) -> int:
+        return self.interval - (sim.step_count - self._origin) % self.interval
+
+    def report(self, sim):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def finish(self, sim):
+        pass
+
+
+class Callback(Reporter):
+    """Call ``function(sim)`` every ``interval`` steps (e.g. an inserter at a rate)."""
+
+    def __init__(self, interval, function):
+        super().__init__(interval)
+        self.function = function
+
+    def report(self, sim):
+        self.function(sim)
+
+
+class EnergyReporter(Reporter):
+    """Record (time [s], kinetic energy [J], number of particles) every ``interval`` steps.
+
+    ``self.times``, ``self.energies`` and ``self.counts`` are lists; ``as_array()`` stacks
+    them.
+    """
+
+    def __init__(self, interval):
+        super().__init__(interval)
+        self.times, self.energies, self.counts = [], [], []
+
+    def report(self, sim):
+        self.times.append(sim.time)
+        self.energies.append(sim.kinetic_energy())
+        self.counts.append(sim.n_particles)
+
+    def as_array(self):
+        return np.column_stack([self.times, self.energies, self.counts])
+
+
+class BlowUpDetector(Reporter):
+    """Stop with a :class:`SimulationError` on NaN/inf or unphysical speeds.
+
+    A run "blows up" when a position or velocity is not finite, or when a particle moves
+    faster than ``max_speed`` [m/s] (default 100 m/s; far above any bench test), which
+    is the signature of a time step too large for the contact stiffness.
+    """
+
+    def __init__(self, interval=100, max_speed=100.0):
+        super().__init__(interval)
+        self.max_speed = float(max_speed)
+
+    def report(self, sim):
+        st = sim.state
+        if st.n == 0:
+            return
+        finite = np.isfinite(st.positions).all() and np.isfinite(st.velocities).all()
+        vmax = float(np.sqrt((st.velocities ** 2).sum(axis=1)).max()) if finite else math.inf
+        if not finite or vmax > self.max_speed:
+            raise SimulationError(
+                f"the simulation blew up at t = {sim.time:.6g} s (step {sim.step_count}, "
+                f"max speed {vmax:.3g} m/s): time step {sim.dt:.3g} s too large for these "
+                "stiffnesses; reduce dt (or dt_fraction).")
+
+
+class ProgressReporter(Reporter):
+    """tqdm progress bar with simulated time, ETA and particle-steps per second."""
+
+    def __init__(self, interval=200, description="DEM", file=None, disable=None):
+        super().__init__(interval)
+        self.description = description
+        self.file = file
+        self.disable = disable
+        self._bar = None
+
+    def start(self, sim, total_steps):
+        super().start(sim, total_steps)
+        from tqdm.auto import tqdm
+        self._bar = tqdm(total=total_steps, desc=self.description, unit="step",
+                         file=self.file, disable=self.disable, dynamic_ncols=True)
+        self._t0 = _time.perf_counter()
+        self._last = sim.step_count
+        self._psteps = 0.0
+
+    def report(self, sim):
+        now = _time.perf_counter()
+        n = sim.step_count - self._last
+        self._psteps += n * sim.n_particles
+        self._last = sim.step_count
+        rate = self._psteps / max(now - self._t0, 1e-9)
+        self._bar.set_postfix_str(f"t={sim.time:.4g} s, {rate:.3g} particle-steps/s")
+        self._bar.update(n)
+
+    def finish(self, sim):
+        if self._bar is not None:
+            self._bar.update(sim.step_count - self._last)
+            self._bar.close()
+            self._bar = None
+
+
+class CheckpointReporter(Reporter):
+    """Write ``sim.save_checkpoint(path)`` every ``interval`` steps (atomic replace)."""
+
+    def __init__(self, path, interval):
+        super().__init__(interval)
+        self.path = os.fspath(path)
+
+    def report(self, sim):
+        sim.save_checkpoint(self.path)
+
+
+class VTKReporter(Reporter):
+    """Write spheres (and walls) as VTK PolyData frames plus a ``.pvd`` (ParaView).
+
+    Uses :class:`demcal.io.vtk.VtkSeries`. Each particle frame has the sphere centres
+    with ``radius``, ``velocity``, ``omega`` and ``body_id`` point data.
+    """
+
+    def __init__(self, directory, interval, name="particles", walls=True):
+        super().__init__(interval)
+        self.directory = os.fspath(directory)
+        self.name = name
+        self.walls = walls
+        self._series = None
+
+    def report(self, sim):
+        from demcal.io.vtk import VtkSeries
+        if self._series is None:
+            os.makedirs(self.directory, exist_ok=True)
+            self._series = VtkSeries(self.directory, name=self.name)
+        st = sim.state
+        body = st.sphere_body
+        self._series.write(sim.time, st.sphere_positions, radius=st.radii,
+                           velocity=st.velocities[body], body_ids=body,
+                           point_data={"omega": st.omegas[body]},
+                           walls=sim.walls if self.walls else None)
+
+    @property
+    def pvd_path(self):
+        return None if self._series is None else self._series.pvd_path

@@ -1,0 +1,799 @@
+"""The :class:`Simulation`: state, neighbour lists, walls and the run loop.
+
+See :mod:`demcal.dem` for an overview and an example.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from demcal.errors import ConfigError, SimulationError
+from demcal.particles.materials import MaterialTable
+
+from . import forces as _forces
+from . import integrator as _integ
+from . import neighbours as _nl
+from . import timestep as _ts
+from .contact.kernel import HIST_WIDTH
+from .contact.registry import ContactModel
+
+CHECKPOINT_VERSION = 1
+
+#: Compute backends present. The kernels are written so the same source can be compiled
+#: with numba.cuda later; only the numba CPU backend exists today.
+BACKENDS = ("cpu",)
+
+
+@dataclass
+class State:
+    """Live views of the simulation arrays (SI units). Copy what you keep.
+
+    Bodies (one per particle, ``n`` rows): ``positions`` [m] (centre of mass),
+    ``velocities`` [m/s], ``omegas`` [rad/s] (world frame), ``quaternions`` (w, x, y, z;
+    body principal frame -> world), ``angular_momenta`` [kg m2/s] (world),
+    ``forces`` [N] and ``torques`` [N m] of the last evaluation (gravity included),
+    ``masses`` [kg], ``inertias`` [kg m2] (principal), ``materials`` (index),
+    ``templates`` (index into ``Simulation.templates``), ``scales`` (size factor),
+    ``fixed`` (bool). Spheres (``ns`` rows): ``sphere_positions`` [m], ``radii`` [m],
+    ``sphere_body`` (owning body).
+    """
+
+    positions: np.ndarray
+    velocities: np.ndarray
+    omegas: np.ndarray
+    quaternions: np.ndarray
+    angular_momenta: np.ndarray
+    forces: np.ndarray
+    torques: np.ndarray
+    masses: np.ndarray
+    inertias: np.ndarray
+    materials: np.ndarray
+    templates: np.ndarray
+    scales: np.ndarray
+    fixed: np.ndarray
+    sphere_positions: np.ndarray
+    radii: np.ndarray
+    sphere_body: np.ndarray
+    time: float
+    step: int
+
+    @property
+    def n(self) -> int:
+        """Number of particles (bodies)."""
+        return self.positions.shape[0]
+
+
+class _SphereTemplate:
+    """A single sphere of radius ``radius`` (internal; duck-types a template)."""
+
+    def __init__(self, radius: float):
+        self.name = f"sphere({radius:g})"
+        self.radii = np.array([radius])
+        self.centers = np.zeros((1, 3))
+        self.volume = 4.0 / 3.0 * math.pi * radius ** 3
+        i = 0.4 * radius ** 2 * self.volume
+        self.inertia_per_density = np.array([i, i, i])
+
+
+def _empty_walls():
+    return dict(kind=np.zeros(0, np.int32), params=np.zeros((0, 16)),
+                velocity=np.zeros((0, 3)), omega=np.zeros((0, 3)),
+                origin=np.zeros((0, 3)), aabb=np.zeros((0, 6)),
+                material=np.zeros(0, np.int32), group=np.zeros(0, np.int32))
+
+
+def _random_quaternions(n, rng):
+    """Uniform random rotations (Shoemake 1992, Graphics Gems III)."""
+    u1, u2, u3 = rng.random((3, n))
+    a = np.sqrt(1.0 - u1)
+    b = np.sqrt(u1)
+    return np.stack([a * np.sin(2 * np.pi * u2), a * np.cos(2 * np.pi * u2),
+                     b * np.sin(2 * np.pi * u3), b * np.cos(2 * np.pi * u3)], axis=1)
+
+
+class Simulation:
+    """A DEM simulation of rigid multi-sphere particles and walls.
+
+    Parameters
+    ----------
+    materials : Material or list of Material
+        Particle and wall materials (EDEM material table).
+    interactions : Interaction or dict
+        One Interaction for all pairs, or ``{(a, b): Interaction, "default": ...}`` with
+        materials by index or name (EDEM interaction table).
+    walls : demcal.geometry.WallSet, optional
+        Walls (rows per ``.coord/WALLS.md``); their ``material`` indices refer to
+        ``materials``.
+    gravity : 3 floats
+        Gravitational acceleration [m/s2]; may be changed between runs
+        (``sim.gravity[:] = ...``), e.g. to tilt a plane exactly.
+    dt : float, optional
+        Time step [s]. Default: ``dt_fraction`` of the Rayleigh time, capped at a tenth
+        of the shortest contact duration (:mod:`demcal.dem.timestep`). A step above the
+        stable limit raises :class:`ConfigError`.
+    contact_model : {"hertz_mindlin", "hysteretic_spring", "linear"} or ContactModel
+    rolling_model : {"type_a", "cdt", "type_c", "none"}
+    dt_fraction : float
+        Fraction of the Rayleigh time for the automatic step (default 0.2).
+    impact_speed : float
+        Characteristic impact speed [m/s] for the Hertz contact-time check (default 2).
+    skin : float, optional
+        Neighbour-list skin [m]; default 0.4 x the smallest sphere radius.
+    domain : (lo, hi), optional
+        Box [m]; particles are refused if they do not fit, and particles leaving it are
+        removed (counted in ``sim.escaped``).
+    threads : int, optional
+        Worker threads for the force and integration loops (default: all cores). The
+        compiled kernels release the GIL and each writes disjoint slots, so results are
+        bitwise identical for any thread count.
+    backend : {"cpu"}
+        Compute backend (see :data:`BACKENDS`).
+    """
+
+    def __init__(self, materials, interactions, walls=None, gravity=(0.0, 0.0, -9.81),
+                 dt=None, contact_model="hertz_mindlin", rolling_model="type_a",
+                 dt_fraction=0.2, impact_speed=2.0, skin=None, domain=None,
+                 threads=None, backend="cpu"):
+        if backend not in BACKENDS:
+            raise ConfigError(f"unknown backend {backend!r}; available: {list(BACKENDS)}.")
+        self.backend = backend
+        self.material_table = MaterialTable(materials, interactions)
+        self.materials = self.material_table.materials
+        if isinstance(contact_model, ContactModel):
+            self.contact_model = contact_model
+            contact_model.ids()
+        else:
+            self.contact_model = ContactModel.preset(contact_model, rolling_model)
+        self._models = np.array(self.contact_model.ids(), dtype=np.int64)
+        self._table = np.ascontiguousarray(self.material_table.table)
+        self.gravity = np.array(gravity, dtype=float).reshape(3)
+        if not np.all(np.isfinite(self.gravity)):
+            raise ConfigError(f"gravity must be three finite numbers, got {gravity!r}.")
+        if dt is not None and not (isinstance(dt, (int, float)) and math.isfinite(dt)
+                                   and dt > 0):
+            raise ConfigError(f"dt must be a positive number of seconds, got {dt!r}.")
+        if not 0.0 < float(dt_fraction) <= 1.0:
+            raise ConfigError(f"dt_fraction must be in (0, 1], got {dt_fraction}.")
+        if not (impact_speed > 0):
+            raise ConfigError(f"impact_speed must be > 0 m/s, got {impact_speed}.")
+        self._dt_user = dt
+        self.dt_fraction = float(dt_fraction)
+        self.impact_speed = float(impact_speed)
+        self._dt = None
+        self._skin_user = skin
+        if skin is not None and not skin > 0:
+            raise ConfigError(f"skin must be > 0 m, got {skin}.")
+        self.domain = None
+        if domain is not None:
+            lo, hi = (np.asarray(v, dtype=float).reshape(3) for v in domain)
+            if not np.all(hi > lo):
+                raise ConfigError(f"domain must be (lo, hi) with hi > lo, got {domain!r}.")
+            self.domain = (lo, hi)
+        if threads is None:
+            threads = os.cpu_count() or 1
+        if not (isinstance(threads, int) and not isinstance(threads, bool) and threads >= 1):
+            raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
+        self.threads = threads
+        self._pool = None
+        self.walls = walls
+        self._wall_arrays()
+        nmat = len(self.materials)
+        if self._w["material"].size and (self._w["material"].min() < 0
+                                         or self._w["material"].max() >= nmat):
+            raise ConfigError(f"a wall's material index is out of range (there are {nmat} "
+                              "materials).")
+        self.templates = []
+        self.time = 0.0
+        self.step_count = 0
+        self.escaped = 0
+        self._alloc_bodies(0, 0)
+        self._alloc_lists(0, 0, 0)
+        self._wall_travel = 0.0
+        self._old_of_new = None
+        self._spare_p = None
+        self._needs_rebuild = True
+        self._forces_valid = False
+        self.rebuilds = 0
+
+    # ------------------------------------------------------------------ allocation --
+    def _alloc_bodies(self, nb, ns):
+        self._b = dict(pos=np.zeros((nb, 3)), vel=np.zeros((nb, 3)),
+                       quat=np.zeros((nb, 4)), angmom=np.zeros((nb, 3)),
+                       omega=np.zeros((nb, 3)), force=np.zeros((nb, 3)),
+                       torque=np.zeros((nb, 3)), mass=np.zeros(nb),
+                       inertia=np.zeros((nb, 3)), mat=np.zeros(nb, np.int64),
+                       template=np.zeros(nb, np.int64), scale=np.zeros(nb),
+                       fixed=np.zeros(nb, np.bool_), start=np.zeros(nb + 1, np.int64))
+        self._s = dict(body=np.zeros(ns, np.int64), offset=np.zeros((ns, 3)),
+                       radius=np.zeros(ns), pos=np.zeros((ns, 3)), ref=np.zeros((ns, 3)),
+                       dsq=np.zeros(ns))
+
+    def _alloc_lists(self, ns, cap, wcap):
+        self._p = dict(start=np.zeros(ns + 1, np.int64), nbr=np.zeros(cap, np.int64),
+                       hist=np.zeros((cap, HIST_WIDTH)), out=np.zeros((cap, 9)),
+                       rev_start=np.zeros(ns + 1, np.int64), rev=np.zeros(cap, np.int64))
+        self._q = dict(start=np.zeros(ns + 1, np.int64), wid=np.zeros(wcap, np.int64),
+                       hist=np.zeros((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)))
+
+    def _wall_arrays(self):
+        w = self.walls
+        if w is None:
+            self._w = _empty_walls()
+            self._walls_moving = False
+            self.wall_names = []
+            return
+        if w.moving:
+            w.update(self.time)
+        self._w = dict(kind=np.ascontiguousarray(w.kind, dtype=np.int64),
+                       params=np.ascontiguousarray(w.params, dtype=float),
+                       velocity=np.ascontiguousarray(w.velocity, dtype=float),
+                       omega=np.ascontiguousarray(w.omega, dtype=float),
+                       origin=np.ascontiguousarray(w.origin, dtype=float),
+                       aabb=np.ascontiguousarray(w.aabb, dtype=float),
+                       material=np.ascontiguousarray(w.material, dtype=np.int64),
+                       group=np.ascontiguousarray(w.group, dtype=np.int64))
+        self._walls_moving = bool(w.moving)
+        self.wall_names = list(getattr(w, "names", []))
+
+    # ------------------------------------------------------------------ particles --
+    @property
+    def n_particles(self) -> int:
+        """Number of particles (rigid bodies)."""
+        return self._b["pos"].shape[0]
+
+    @property
+    def n_spheres(self) -> int:
+        """Number of spheres (contact entities)."""
+        return self._s["pos"].shape[0]
+
+    def add_particles(self, template, positions, orientations=None, scales=None,
+                      velocities=None, angular_velocities=None, material=0, fixed=False,
+                      seed=0):
+        """Add particles made from one template; returns the new particle indices.
+
+        Parameters
+        ----------
+        template : float or template
+            A sphere radius [m], or a multi-sphere template with ``radii``, ``centers``
+            (principal frame, centre of mass at the origin), ``volume`` and
+            ``inertia_per_density`` (see :mod:`demcal.particles.templates`).
+        positions : (n, 3) array
+            Centres of mass [m].
+        orientations : (n, 4) quaternions (w, x, y, z), "random", or None (identity).
+        scales : float or (n,) array
+            Size factors (radii and offsets times s, mass s^3, inertia s^5).
+        velocities, angular_velocities : (3,) or (n, 3) arrays [m/s], [rad/s].
+        material : int or str
+            Material of the particles.
+        fixed : bool
+            Fixed particles never move (obstacles).
+        seed : int
+            Seed for ``orientations="random"``.
+        """
+        pos = np.asarray(positions, dtype=float)
+        if pos.ndim == 1:
+            pos = pos.reshape(1, -1)
+        if pos.ndim != 2 or pos.shape[1] != 3 or not np.all(np.isfinite(pos)):
+            raise ConfigError("positions must be an (n, 3) array of finite numbers [m].")
+        n = pos.shape[0]
+        if isinstance(template, (int, float, np.floating, np.integer)):
+            if not float(template) > 0:
+                raise ConfigError(f"particle radius must be > 0 m, got {template}.")
+            tpl = _SphereTemplate(float(template))
+        else:
+            tpl = template
+            for attr in ("radii", "centers", "volume", "inertia_per_density"):
+                if not hasattr(tpl, attr):
+                    raise ConfigError(f"template {tpl!r} has no attribute {attr!r}; use a "
+                                      "demcal.particles.templates template or a radius.")
+        mi = self.material_table.index(material)
+        rho = self.materials[mi].density
+        radii = np.asarray(tpl.radii, dtype=float).reshape(-1)
+        centers = np.asarray(tpl.centers, dtype=float).reshape(-1, 3)
+        ipd = np.asarray(tpl.inertia_per_density, dtype=float).reshape(3)
+        if radii.size != centers.shape[0] or np.any(radii <= 0):
+            raise ConfigError("template radii must be positive, one per centre.")
+        sc = np.broadcast_to(np.asarray(1.0 if scales is None else scales, dtype=float),
+                             (n,)).copy()
+        if np.any(~np.isfinite(sc)) or np.any(sc <= 0):
+            raise ConfigError("scales must be positive numbers.")
+        if isinstance(orientations, str):
+            if orientations != "random":
+                raise ConfigError(
+                    f"orientations must be quaternions, 'random' or None, got {orientations!r}.")
+            quat = _random_quaternions(n, np.random.default_rng(seed))
+        elif orientations is None:
+            quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        else:
+            quat = np.asarray(orientations, dtype=float).reshape(n, 4)
+            norm = np.linalg.norm(quat, axis=1, keepdims=True)
+            if np.any(norm == 0) or not np.all(np.isfinite(quat)):
+                raise ConfigError("orientations must be non-zero quaternions (w, x, y, z).")
+            quat = quat / norm
+        vel = np.broadcast_to(np.asarray(0.0 if velocities is None else velocities,
+                                         dtype=float), (n, 3)).copy()
+        omg = np.broadcast_to(np.asarray(0.0 if angular_velocities is None
+                                         else angular_velocities, dtype=float), (n, 3)).copy()
+        # sphere extents for the domain check
+        rmax_particle = (np.linalg.norm(centers, axis=1) + radii).max() * sc
+        if self.domain is not None:
+            lo, hi = self.domain
+            size = (hi - lo).min()
+            big = 2 * rmax_particle > size
+            if np.any(big):
+                raise ConfigError(
+                    f"a particle of diameter {2 * rmax_particle[big].max():.3g} m is larger "
+                    f"than the domain ({size:.3g} m across); enlarge domain or shrink the "
+                    "particle.")
+            out = np.any((pos < lo) | (pos > hi), axis=1)
+            if np.any(out):
+                raise ConfigError(f"{int(out.sum())} particle position(s) lie outside the "
+                                  "domain; move them inside or enlarge domain.")
+        try:
+            tid = next(k for k, t in enumerate(self.templates) if t is tpl)
+        except StopIteration:
+            self.templates.append(tpl)
+            tid = len(self.templates) - 1
+        k = radii.size
+        mass = rho * tpl.volume * sc ** 3
+        inertia = rho * ipd[None, :] * sc[:, None] ** 5
+        if k == 1 and not np.allclose(centers, 0.0):
+            raise ConfigError("a one-sphere template must have its centre at the origin.")
+        # angular momentum L = R I R^T w
+        angmom = np.empty((n, 3))
+        for a in range(n):
+            q = quat[a]
+            wb = _integ.quat_rotate_inv(q[0], q[1], q[2], q[3], *omg[a])
+            lb = np.array(wb) * inertia[a]
+            angmom[a] = _integ.quat_rotate(q[0], q[1], q[2], q[3], *lb)
+        nb0, ns0 = self.n_particles, self.n_spheres
+        b, s = self._b, self._s
+        start_new = ns0 + k * np.arange(1, n + 1, dtype=np.int64)
+        self._b = dict(
+            pos=np.concatenate([b["pos"], pos]), vel=np.concatenate([b["vel"], vel]),
+            quat=np.concatenate([b["quat"], quat]),
+            angmom=np.concatenate([b["angmom"], angmom]),
+            omega=np.concatenate([b["omega"], omg]),
+            force=np.concatenate([b["force"], np.zeros((n, 3))]),
+            torque=np.concatenate([b["torque"], np.zeros((n, 3))]),
+            mass=np.concatenate([b["mass"], mass]),
+            inertia=np.concatenate([b["inertia"], inertia]),
+            mat=np.concatenate([b["mat"], np.full(n, mi, np.int64)]),
+            template=np.concatenate([b["template"], np.full(n, tid, np.int64)]),
+            scale=np.concatenate([b["scale"], sc]),
+            fixed=np.concatenate([b["fixed"], np.full(n, bool(fixed))]),
+            start=np.concatenate([b["start"], start_new]))
+        off = (centers[None, :, :] * sc[:, None, None]).reshape(-1, 3)
+        rad = (radii[None, :] * sc[:, None]).reshape(-1)
+        body = np.repeat(np.arange(nb0, nb0 + n, dtype=np.int64), k)
+        spos = np.empty((n * k, 3))
+        for a in range(n):
+            q = quat[a]
+            for c in range(k):
+                o = off[a * k + c]
+                spos[a * k + c] = pos[a] + np.array(
+                    _integ.quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2]))
+        self._s = dict(body=np.concatenate([s["body"], body]),
+                       offset=np.concatenate([s["offset"], off]),
+                       radius=np.concatenate([s["radius"], rad]),
+                       pos=np.concatenate([s["pos"], spos]),
+                       ref=np.concatenate([s["ref"], spos]),
+                       dsq=np.zeros(ns0 + n * k))
+        # pad the per-sphere CSR starts: new spheres have empty rows until the rebuild
+        p, q = self._p, self._q
+        for d in (p, q):
+            for key in ("start", "rev_start") if d is p else ("start",):
+                d[key] = np.concatenate([d[key], np.full(n * k, d[key][-1], np.int64)])
+        if self._old_of_new is not None:
+            self._old_of_new = np.concatenate([self._old_of_new,
+                                               np.full(n * k, -1, np.int64)])
+        self._needs_rebuild = True
+        self._forces_valid = False
+        if self._dt is not None and self._dt_user is None:
+            self._dt = None  # re-derive: smaller particles may need a smaller step
+        return np.arange(nb0, nb0 + n)
+
+    def remove_particles(self, which):
+        """Remove particles given by a boolean mask or indices (history of the others kept)."""
+        keep = np.ones(self.n_particles, bool)
+        keep[np.asarray(which)] = False
+        if keep.all():
+            return
+        self._compact(keep)
+
+    def _compact(self, keep):
+        b, s = self._b, self._s
+        nb = self.n_particles
+        counts = np.diff(b["start"])
+        skeep = np.repeat(keep, counts)
+        old_sphere = np.nonzero(skeep)[0]
+        new_start = np.concatenate([[0], np.cumsum(counts[keep])]).astype(np.int64)
+        new_body_of_old = np.full(nb, -1, np.int64)
+        new_body_of_old[keep] = np.arange(keep.sum())
+        self._b = {k: (v[keep] if k != "start" else new_start) for k, v in b.items()}
+        self._s = {k: v[skeep] for k, v in s.items()}
+        self._s["body"] = new_body_of_old[self._s["body"]]
+        prev = self._old_of_new  # compose with a renumbering not yet applied
+        self._old_of_new = old_sphere if prev is None else prev[old_sphere]
+        self._needs_rebuild = True
+        self._forces_valid = False
+
+    #: Below this many items a loop runs in the calling thread only.
+    parallel_threshold = 2048
+
+    def _par(self, fn, n, *args):
+        """Run ``fn(*args, lo, hi)`` over [0, n) in ``self.threads`` contiguous chunks.
+
+        The kernels are compiled with ``nogil=True``; each item is written by one chunk,
+        so the result does not depend on the number of threads.
+        """
+        t = self.threads
+        if t <= 1 or n < self.parallel_threshold:
+            fn(*args, 0, n)
+            return
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=t - 1,
+                                            thread_name_prefix="demcal-dem")
+        bounds = [n * k // t for k in range(t + 1)]
+        futs = [self._pool.submit(fn, *args, bounds[k], bounds[k + 1]) for k in range(t - 1)]
+        fn(*args, bounds[t - 1], bounds[t])
+        for f in futs:
+            f.result()
+
+    # ------------------------------------------------------------------ time step --
+    @property
+    def dt(self) -> float:
+        """Time step [s] (derived from the particles on first use when not given)."""
+        if self._dt is None:
+            self._dt = self._resolve_dt()
+        return self._dt
+
+    def time_scales(self):
+        """(Rayleigh time, shortest contact duration) [s] for the current particles."""
+        if self.n_spheres == 0:
+            raise ConfigError("add particles before asking for the time step.")
+        mats = np.unique(self._b["mat"])
+        t_r = math.inf
+        pp, pw = [], []
+        wmats = np.unique(self._w["material"])
+        for m in mats:
+            sel = self._b["mat"] == m
+            bodies = np.nonzero(sel)[0]
+            smask = np.isin(self._s["body"], bodies)
+            rmin = self._s["radius"][smask].min()
+            mmin = self._b["mass"][sel].min()
+            mat = self.materials[m]
+            t_r = min(t_r, _ts.rayleigh_time(rmin, mat.density, mat.shear_modulus,
+                                             mat.poisson_ratio))
+            for m2 in mats:
+                pp.append((m, m2, rmin / 2.0, mmin / 2.0))
+            for wm in wmats:
+                pw.append((m, wm, rmin, mmin))
+        t_c = _ts.contact_times(int(self._models[0]), self._table, pp, pw,
+                                self.impact_speed)
+        return t_r, t_c
+
+    def _resolve_dt(self):
+        t_r, t_c = self.time_scales()
+        if self._dt_user is not None:
+            _ts.check_dt(float(self._dt_user), int(self._models[0]), t_r, t_c)
+            return float(self._dt_user)
+        return _ts.choose_dt(int(self._models[0]), t_r, t_c, self.dt_fraction)
+
+    @property
+    def skin(self) -> float:
+        """Neighbour skin [m]."""
+        if self._skin_user is not None:
+            return float(self._skin_user)
+        if self.n_spheres == 0:
+            return 0.0
+        return 0.4 * float(self._s["radius"].min())
+
+    # ------------------------------------------------------------------ neighbours --
+    def _rebuild(self):
+        s = self._s
+        ns = self.n_spheres
+        if ns and not np.all(np.isfinite(s["pos"])):
+            raise SimulationError(
+                f"particle positions became NaN or infinite at t = {self.time:.6g} s: the "
+                f"time step {self.dt:.3g} s is too large for these stiffnesses or speeds; "
+                "reduce dt.")
+        if self.domain is not None and ns:
+            lo, hi = self.domain
+            out_s = np.any((s["pos"] < lo) | (s["pos"] > hi), axis=1)
+            if np.any(out_s):
+                gone = np.zeros(self.n_particles, bool)
+                gone[np.unique(s["body"][out_s])] = True
+                self.escaped += int(gone.sum())
+                self._compact(~gone)
+                s = self._s
+                ns = self.n_spheres
+        skin = self.skin
+        old_p, old_q = self._p, self._q
+        old_of_new = self._old_of_new
+        if old_of_new is None:
+            old_of_new = np.arange(ns, dtype=np.int64)
+            n_old = old_p["start"].shape[0] - 1
+            old_of_new[old_of_new >= n_old] = -1
+        start = np.zeros(ns + 1, np.int64)
+        wstart = np.zeros(ns + 1, np.int64)
+        if ns:
+            max_cells = max(8 * ns, 1000)
+            lo, h, dims, cell_of, cell_start, cell_order = _nl.build_cells(
+                s["pos"], s["radius"], skin, max_cells)
+            dummy = np.zeros(0, np.int64)
+            self._par(_nl.pair_rows, ns, s["pos"], s["radius"], s["body"], skin, dims,
+                      cell_of, cell_start, cell_order, start, dummy, False)
+        npair = _nl.prefix_sum(start)
+        cap = old_p["nbr"].shape[0]
+        if npair > cap:
+            cap = _nl.grown(cap, npair)
+        spare = getattr(self, "_spare_p", None)
+        if spare is not None and spare["nbr"].shape[0] >= cap:
+            new_p = spare
+            new_p["start"] = start
+        else:
+            new_p = dict(start=start, nbr=np.empty(cap, np.int64),
+                         hist=np.empty((cap, HIST_WIDTH)), out=np.zeros((cap, 9)),
+                         rev=np.empty(cap, np.int64))
+        new_p["rev_start"] = np.zeros(ns + 1, np.int64)
+        if ns:
+            self._par(_nl.pair_rows, ns, s["pos"], s["radius"], s["body"], skin, dims,
+                      cell_of, cell_start, cell_order, start, new_p["nbr"], True)
+            self._par(_nl.sort_rows, ns, start, new_p["nbr"])
+            self._par(_nl.carry_history, ns, start, new_p["nbr"], new_p["hist"],
+                      old_p["start"], old_p["nbr"], old_p["hist"], old_of_new)
+            _nl.reverse_index(start, new_p["nbr"], new_p["rev_start"], new_p["rev"])
+        self._spare_p = old_p if old_p["nbr"].shape[0] >= cap else None
+        self._p = new_p
+        # walls
+        w = self._w
+        if ns:
+            self._par(_nl.wall_rows, ns, s["pos"], s["radius"], skin, w["kind"],
+                      w["params"], w["aabb"], wstart, np.zeros(0, np.int64), False)
+        nq = _nl.prefix_sum(wstart)
+        wcap = max(old_q["wid"].shape[0], 0)
+        if nq > wcap:
+            wcap = _nl.grown(wcap, nq)
+        new_q = dict(start=wstart, wid=np.empty(wcap, np.int64),
+                     hist=np.empty((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)))
+        if ns:
+            self._par(_nl.wall_rows, ns, s["pos"], s["radius"], skin, w["kind"],
+                      w["params"], w["aabb"], wstart, new_q["wid"], True)
+            self._par(_nl.carry_wall_history, ns, wstart, new_q["wid"], new_q["hist"],
+                      old_q["start"], old_q["wid"], old_q["hist"], old_of_new)
+        self._q = new_q
+        s["ref"][:] = s["pos"]
+        self._wall_travel = 0.0
+        self._old_of_new = None
+        self._needs_rebuild = False
+        self.rebuilds += 1
+
+    # ------------------------------------------------------------------ stepping --
+    def _compute_forces(self, kick):
+        b, s, p, q, w = self._b, self._s, self._p, self._q, self._w
+        dt = self.dt
+        if self.n_spheres:
+            ns = self.n_spheres
+            self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"], s["radius"],
+                                s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
+                                b["inertia"], b["mat"], p["start"], p["nbr"], p["hist"],
+                                p["out"])
+            self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"], s["radius"],
+                                s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
+                                b["inertia"], b["mat"], q["start"], q["wid"], q["hist"],
+                                q["out"], w["kind"], w["params"], w["velocity"], w["omega"],
+                                w["origin"], w["material"])
+        self._par(_integ.gather_kick, self.n_particles, dt, self.gravity, b["vel"], b["quat"], b["angmom"], b["omega"],
+                           b["force"], b["torque"], b["mass"], b["inertia"], b["fixed"],
+                           b["start"], p["start"], p["out"], p["rev_start"], p["rev"],
+                           q["start"], q["out"], kick)
+        self._forces_valid = True
+
+    def _prepare(self):
+        self.dt  # noqa: B018  (resolve and check)
+        if self._needs_rebuild:
+            self._rebuild()
+        if not self._forces_valid:
+            self._compute_forces(False)
+
+    def _drift(self):
+        b, s = self._b, self._s
+        self._par(_integ.drift, self.n_particles, self.dt, b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"],
+                     b["force"], b["torque"], b["mass"], b["inertia"], b["fixed"],
+                     b["start"], s["offset"], s["pos"], s["ref"], s["dsq"])
+
+    def _max_disp(self):
+        d = self._s["dsq"]
+        return math.sqrt(float(d.max())) if d.size else 0.0
+
+    def _advance(self, nsteps):
+        """Advance exactly ``nsteps`` steps."""
+        if nsteps <= 0:
+            return
+        if self.n_spheres == 0:
+            dt = self._dt_user if self._dt_user else 0.0
+            for _ in range(nsteps):
+                self.step_count += 1
+                self.time += dt
+                if self._walls_moving:
+                    self.walls.update(self.time)
+            return
+        self._prepare()
+        dt = self.dt
+        half_skin = 0.5 * self.skin
+        moving = self._walls_moving
+        for _ in range(nsteps):
+            self._drift()
+            self.time += dt
+            self.step_count += 1
+            if moving:
+                self._move_walls(dt)
+            if self._max_disp() + self._wall_travel > half_skin or self._needs_rebuild:
+                self._rebuild()
+            self._compute_forces(True)
+
+    def _move_walls(self, dt):
+        w = self.walls
+        w.update(self.time)
+        for key in ("params", "velocity", "omega", "origin", "aabb"):
+            self._w[key][...] = getattr(w, key)
+        vel = self._w["velocity"]
+        om = self._w["omega"]
+        if vel.size:
+            sp = self._s["pos"]
+            lo, hi = sp.min(axis=0), sp.max(axis=0)
+            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                for z in (lo[2], hi[2])])
+            reach = np.linalg.norm(corners[None, :, :] - self._w["origin"][:, None, :],
+                                   axis=2).max(axis=1) + self.skin
+            speed = np.linalg.norm(vel, axis=1) + np.linalg.norm(om, axis=1) * reach
+            self._wall_travel += float(speed.max()) * dt
+
+    def run(self, duration=None, steps=None, reporters=()):
+        """Advance by ``duration`` [s] (rounded to whole steps) or ``steps``.
+
+        Reporters (OpenMM style) are objects with ``next_report(sim) -> int`` (steps until
+        they next want data, >= 1) and ``report(sim)``; see :mod:`demcal.dem.reporters`.
+        A reporter may add or remove particles, change gravity, or raise to stop.
+        """
+        if (duration is None) == (steps is None):
+            raise ConfigError("give run() exactly one of duration [s] or steps.")
+        if self.n_spheres:
+            dt = self.dt
+        else:
+            dt = self._dt_user if self._dt_user else None
+        if steps is None:
+            if not duration >= 0:
+                raise ConfigError(f"duration must be >= 0 s, got {duration}.")
+            if dt is None:
+                raise ConfigError("add particles (or give dt) before running by duration.")
+            steps = int(round(duration / dt))
+        steps = int(steps)
+        if steps < 0:
+            raise ConfigError(f"steps must be >= 0, got {steps}.")
+        reporters = list(reporters)
+        for r in reporters:
+            if hasattr(r, "start"):
+                r.start(self, steps)
+        done = 0
+        try:
+            while done < steps:
+                want = [max(1, int(r.next_report(self))) for r in reporters]
+                nxt = min([steps - done] + want)
+                self._advance(nxt)
+                done += nxt
+                for r, k in zip(reporters, want):
+                    if k == nxt:
+                        r.report(self)
+        finally:
+            for r in reporters:
+                if hasattr(r, "finish"):
+                    r.finish(self)
+        return self
+
+    # ------------------------------------------------------------------ observables --
+    @property
+    def state(self) -> State:
+        """Live views of the arrays (see :class:`State`)."""
+        b, s = self._b, self._s
+        return State(positions=b["pos"], velocities=b["vel"], omegas=b["omega"],
+                     quaternions=b["quat"], angular_momenta=b["angmom"],
+                     forces=b["force"], torques=b["torque"], masses=b["mass"],
+                     inertias=b["inertia"], materials=b["mat"], templates=b["template"],
+                     scales=b["scale"], fixed=b["fixed"], sphere_positions=s["pos"],
+                     radii=s["radius"], sphere_body=s["body"], time=self.time,
+                     step=self.step_count)
+
+    def kinetic_energy(self) -> float:
+        """Translational plus rotational kinetic energy [J] of the free particles."""
+        b = self._b
+        free = ~b["fixed"]
+        et = 0.5 * np.sum(b["mass"][free] * np.sum(b["vel"][free] ** 2, axis=1))
+        er = 0.5 * np.sum(b["omega"][free] * b["angmom"][free])
+        return float(et + er)
+
+    def wall_forces(self) -> dict:
+        """Force [N] and torque [N m] (about each row's origin) on every wall group.
+
+        Returns ``{group name: (force (3,), torque (3,))}``; torques of a group's rows are
+        summed about their own origins (identical for rigid groups sharing an origin).
+        """
+        nw = self._w["kind"].shape[0]
+        out = np.zeros((nw, 6))
+        if nw and self.n_spheres and self._forces_valid:
+            _forces.wall_totals(self._q["start"], self._q["wid"], self._q["out"], nw, out)
+        groups = self._w["group"]
+        names = self.wall_names or [f"wall{g}" for g in range(int(groups.max()) + 1
+                                                               if nw else 0)]
+        res = {}
+        for g, name in enumerate(names):
+            sel = groups == g
+            res[name] = (out[sel, :3].sum(axis=0), out[sel, 3:].sum(axis=0))
+        return res
+
+    def contacts(self):
+        """Current particle-particle contacts as (i_sphere, j_sphere, force on i (3,))."""
+        p = self._p
+        ns = self.n_spheres
+        rows = np.repeat(np.arange(ns), np.diff(p["start"]))
+        npair = int(p["start"][-1])
+        active = p["hist"][:npair, 7] != 0
+        return rows[active], p["nbr"][:npair][active], p["out"][:npair][active, :3]
+
+    # ------------------------------------------------------------------ checkpoints --
+    def save_checkpoint(self, path):
+        """Write the full state (npz) so that :meth:`load_checkpoint` restarts bit-identically."""
+        arrays = {}
+        for prefix, d in (("b_", self._b), ("s_", self._s), ("p_", self._p), ("q_", self._q)):
+            for k, v in d.items():
+                arrays[prefix + k] = v
+        arrays["scalars"] = np.array([self.time, self.step_count, self.dt, self._wall_travel,
+                                      self.escaped, float(self._forces_valid),
+                                      float(self._needs_rebuild), CHECKPOINT_VERSION])
+        arrays["gravity"] = self.gravity
+        arrays["models"] = self._models
+        tmp = str(path) + ".tmp.npz"
+        np.savez(tmp, **arrays)
+        import os
+        os.replace(tmp, str(path))
+
+    def load_checkpoint(self, path):
+        """Restore a state written by :meth:`save_checkpoint` into this simulation.
+
+        The simulation must have been built with the same materials, walls, contact model
+        and particle templates (templates are referred to by index).
+        """
+        try:
+            z = np.load(str(path))
+        except (OSError, ValueError) as exc:
+            raise ConfigError(f"cannot read checkpoint {path}: {exc}.") from None
+        with z:
+            if not np.array_equal(z["models"], self._models):
+                raise ConfigError(f"checkpoint {path} was written with another contact model.")
+            self._b = {k[2:]: z[k].copy() for k in z.files if k.startswith("b_")}
+            self._s = {k[2:]: z[k].copy() for k in z.files if k.startswith("s_")}
+            self._p = {k[2:]: z[k].copy() for k in z.files if k.startswith("p_")}
+            self._q = {k[2:]: z[k].copy() for k in z.files if k.startswith("q_")}
+            sc = z["scalars"]
+            self.gravity = z["gravity"].copy()
+        self.time = float(sc[0])
+        self.step_count = int(sc[1])
+        self._dt = float(sc[2])
+        self._wall_travel = float(sc[3])
+        self.escaped = int(sc[4])
+        self._forces_valid = bool(sc[5])
+        self._needs_rebuild = bool(sc[6])
+        self._old_of_new = None
+        self._spare_p = None
+        if self.walls is not None and self._walls_moving:
+            self.walls.update(self.time)
+            self._wall_arrays()
+        return self
+
+

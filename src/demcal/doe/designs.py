@@ -1,0 +1,381 @@
+"""Experimental designs as pure functions returning coded matrices.
+
+Every generator returns a ``numpy`` array of shape ``(runs, k)`` in coded units, rows
+in standard order (the order the source tabulates them), centre points last. Run-order
+randomisation, factor names and actual levels are added by :class:`demcal.doe.Design`.
+
+Sources
+-------
+* Box, G.E.P. & Behnken, D.W. (1960). Some new three level designs for the study of
+  quantitative variables. *Technometrics* 2(4), 455-475. (Box-Behnken designs)
+* Box, G.E.P. & Wilson, K.B. (1951). On the experimental attainment of optimum
+  conditions. *J. R. Stat. Soc. B* 13, 1-45. (central composite designs, steepest ascent)
+* Plackett, R.L. & Burman, J.P. (1946). The design of optimum multifactorial
+  experiments. *Biometrika* 33(4), 305-325. (screening designs)
+* Montgomery, D.C. *Design and Analysis of Experiments*, 8th ed., Wiley 2013:
+  Sec. 8.2-8.7 (fractional factorials, Table 8.14 generators), Sec. 11.2 (steepest
+  ascent), Sec. 11.4 (CCD alpha for rotatability and orthogonal blocking).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from demcal.errors import ConfigError
+
+# ---------------------------------------------------------------------------------------
+# Box-Behnken
+# ---------------------------------------------------------------------------------------
+
+#: Factor groups varied together in a Box-Behnken design, 1-based factor numbers.
+#: k = 3..5: every pair once (2^2 factorial per pair). The k = 3 and k = 4 orders are
+#: Design-Expert's standard order, as printed in the reference paper's Tables 8 and 4.
+#: k = 6: the partially balanced incomplete block design of Box & Behnken (1960)
+#: (blocks of three, each factor in three blocks; 2^3 factorial per block, 48 runs).
+#: k = 7: the balanced incomplete block design (7, 3, 1) of Box & Behnken (1960)
+#: (every pair of factors together in exactly one block; 56 runs).
+BOX_BEHNKEN_BLOCKS: dict[int, tuple[tuple[int, ...], ...]] = {
+    3: ((1, 2), (1, 3), (2, 3)),
+    4: ((1, 2), (3, 4), (1, 4), (2, 3), (1, 3), (2, 4)),
+    5: ((1, 2), (3, 4), (2, 5), (1, 3), (4, 5), (2, 3), (1, 4), (3, 5), (1, 5), (2, 4)),
+    6: ((1, 2, 4), (2, 3, 5), (3, 4, 6), (1, 4, 5), (2, 5, 6), (1, 3, 6)),
+    7: ((4, 5, 6), (1, 6, 7), (2, 5, 7), (1, 2, 4), (3, 4, 7), (1, 3, 5), (2, 3, 6)),
+}
+
+#: Runs without centre points, as published (Box & Behnken 1960).
+BOX_BEHNKEN_RUNS = {3: 12, 4: 24, 5: 40, 6: 48, 7: 56}
+
+
+def _two_level_full(m: int) -> np.ndarray:
+    """2^m factorial in Yates standard order (first column changes fastest)."""
+    rows = itertools.product((-1.0, 1.0), repeat=m)
+    return np.array([r[::-1] for r in rows], dtype=float)
+
+
+def box_behnken(k: int, center: int = 5) -> np.ndarray:
+    """Box-Behnken design for ``k`` = 3..7 factors plus ``center`` centre points.
+
+    Parameters
+    ----------
+    k : int
+        Number of factors, 3 to 7.
+    center : int
+        Number of centre runs appended at the end (Design-Expert's default is 5 for
+        k = 3 and 4).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(BOX_BEHNKEN_RUNS[k] + center, k)`` coded matrix with levels -1, 0, +1.
+
+    Notes
+    -----
+    pyDOE3's ``bbdesign`` pairs every two factors for any k, which gives 60 runs at
+    k = 6 and 84 at k = 7 instead of the published 48 and 56; the published incomplete
+    block designs are used here.
+    """
+    if k not in BOX_BEHNKEN_BLOCKS:
+        raise ConfigError(f"Box-Behnken designs exist for 3 to 7 factors, not {k}.")
+    if center < 0:
+        raise ConfigError("the number of centre points cannot be negative.")
+    rows = []
+    for block in BOX_BEHNKEN_BLOCKS[k]:
+        sub = _two_level_full(len(block))
+        for s in sub:
+            row = np.zeros(k)
+            row[[i - 1 for i in block]] = s
+            rows.append(row)
+    rows.extend(np.zeros(k) for _ in range(center))
+    return np.array(rows, dtype=float)
+
+
+# ---------------------------------------------------------------------------------------
+# Factorials
+# ---------------------------------------------------------------------------------------
+
+
+def full_factorial(levels) -> np.ndarray:
+    """Full factorial in coded units.
+
+    Parameters
+    ----------
+    levels : int or sequence of int
+        Number of levels of each factor, or ``k`` for a 2-level 2^k design. Levels are
+        spread evenly over -1 .. +1 (3 levels: -1, 0, +1).
+
+    Returns
+    -------
+    numpy.ndarray
+        Rows in standard order, first factor changing fastest.
+    """
+    if isinstance(levels, (int, np.integer)):
+        levels = [2] * int(levels)
+    levels = [int(n) for n in levels]
+    if not levels or min(levels) < 2:
+        raise ConfigError("a factorial needs at least one factor with at least two levels.")
+    grids = [np.linspace(-1.0, 1.0, n) for n in levels]
+    rows = itertools.product(*grids[::-1])
+    return np.array([r[::-1] for r in rows], dtype=float)
+
+
+#: Standard generators of 2^(k-p) fractions (Montgomery 2013, Table 8.14), letters
+#: A, B, C, ... name the factors in order.
+FRACTION_GENERATORS: dict[tuple[int, int], tuple[str, ...]] = {
+    (3, 1): ("C=AB",),
+    (4, 1): ("D=ABC",),
+    (5, 1): ("E=ABCD",),
+    (5, 2): ("D=AB", "E=AC"),
+    (6, 1): ("F=ABCDE",),
+    (6, 2): ("E=ABC", "F=BCD"),
+    (6, 3): ("D=AB", "E=AC", "F=BC"),
+    (7, 1): ("G=ABCDEF",),
+    (7, 2): ("F=ABCD", "G=ABDE"),
+    (7, 3): ("E=ABC", "F=BCD", "G=ACD"),
+    (7, 4): ("D=AB", "E=AC", "F=BC", "G=ABC"),
+    (8, 2): ("G=ABCD", "H=ABEF"),
+    (8, 3): ("F=ABC", "G=ABD", "H=BCDE"),
+    (8, 4): ("E=BCD", "F=ACD", "G=ABC", "H=ABD"),
+}
+
+_LETTERS = "ABCDEFGHJKLMNOPQRSTUVWXYZ"
+
+
+def fractional_factorial(k: int, p: int | None = None, generators=None) -> np.ndarray:
+    """Two-level fractional factorial 2^(k-p).
+
+    Parameters
+    ----------
+    k : int
+        Number of factors.
+    p : int, optional
+        Number of generators; with ``generators`` omitted the standard ones of
+        :data:`FRACTION_GENERATORS` are used.
+    generators : sequence of str, optional
+        Generators such as ``("D=ABC",)`` or ``("D=-ABC",)``; factor letters follow
+        Design-Expert (A, B, C, ..., skipping I). Each generated factor must be one of
+        the last ``p`` letters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2^(k-p), k)`` coded matrix; the base factors in standard order.
+    """
+    if generators is None:
+        if p is None:
+            raise ConfigError("give either the number of generators p or the generators.")
+        if (k, p) not in FRACTION_GENERATORS:
+            raise ConfigError(
+                f"no standard generators stored for a 2^({k}-{p}) design; pass them, "
+                "e.g. --generators D=ABC."
+            )
+        generators = FRACTION_GENERATORS[(k, p)]
+    generators = [g.replace(" ", "").upper() for g in generators]
+    p = len(generators)
+    base = k - p
+    if base < 1:
+        raise ConfigError(f"a 2^({k}-{p}) fraction has no base factors left.")
+    letters = _LETTERS[:k]
+    design = np.zeros((2**base, k))
+    design[:, :base] = _two_level_full(base)
+    for g in generators:
+        try:
+            lhs, rhs = g.split("=")
+        except ValueError:
+            raise ConfigError(f"cannot read generator {g!r}; write it like D=ABC.") from None
+        sign = -1.0 if rhs.startswith("-") else 1.0
+        rhs = rhs.lstrip("+-")
+        if len(lhs) != 1 or lhs not in letters[base:]:
+            raise ConfigError(
+                f"generator {g!r} must define one of the factors {', '.join(letters[base:])}."
+            )
+        if not rhs or any(c not in letters[:base] for c in rhs):
+            raise ConfigError(
+                f"generator {g!r} may only use the base factors {', '.join(letters[:base])}."
+            )
+        col = np.ones(2**base) * sign
+        for c in rhs:
+            col *= design[:, letters.index(c)]
+        design[:, letters.index(lhs)] = col
+    return design
+
+
+# ---------------------------------------------------------------------------------------
+# Plackett-Burman
+# ---------------------------------------------------------------------------------------
+
+#: First rows of the cyclic Plackett-Burman designs (Plackett & Burman 1946, as
+#: tabulated in Montgomery 2013, Table 8.23). Runs 2..N-1 are cyclic shifts of the
+#: first row; run N is all minus.
+PLACKETT_BURMAN_GENERATORS: dict[int, str] = {
+    8: "+++-+--",
+    12: "++-+++---+-",
+    16: "++++-+-++--+---",
+    20: "++--++++-+-+----++-",
+    24: "+++++-+-++--++--+-+----",
+}
+
+
+def plackett_burman(n_factors: int, runs: int | None = None) -> np.ndarray:
+    """Plackett-Burman screening design.
+
+    Parameters
+    ----------
+    n_factors : int
+        Number of factors (at most ``runs - 1``).
+    runs : int, optional
+        Run count, one of 8, 12, 16, 20, 24; by default the smallest that fits.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(runs, n_factors)`` matrix of -1/+1; column j is the generator shifted so
+        that row i holds ``generator[(j - i) mod (N-1)]`` (the cyclic construction).
+    """
+    if runs is None:
+        fitting = [n for n in sorted(PLACKETT_BURMAN_GENERATORS) if n - 1 >= n_factors]
+        if not fitting:
+            raise ConfigError(
+                f"Plackett-Burman designs are stored for up to 23 factors, not {n_factors}."
+            )
+        runs = fitting[0]
+    if runs not in PLACKETT_BURMAN_GENERATORS:
+        raise ConfigError(f"Plackett-Burman run counts available: 8, 12, 16, 20, 24 (not {runs}).")
+    if not 1 <= n_factors <= runs - 1:
+        raise ConfigError(f"a {runs}-run Plackett-Burman design takes 1 to {runs - 1} factors.")
+    gen = np.array([1.0 if c == "+" else -1.0 for c in PLACKETT_BURMAN_GENERATORS[runs]])
+    m = runs - 1
+    full = np.empty((runs, m))
+    for i in range(m):
+        full[i] = np.roll(gen, i)
+    full[m] = -1.0
+    return full[:, :n_factors]
+
+
+# ---------------------------------------------------------------------------------------
+# Central composite
+# ---------------------------------------------------------------------------------------
+
+
+def ccd_alpha(k: int, kind: str = "rotatable", center: int = 0, fraction_p: int = 0) -> float:
+    """Axial distance of a central composite design [coded units].
+
+    * ``"rotatable"``: alpha = F^(1/4), F = 2^(k-p) factorial runs (Box & Hunter 1957;
+      Montgomery 2013 Eq. 11.21).
+    * ``"orthogonal"``: alpha = [F (sqrt(N) - sqrt(F))^2 / 4]^(1/4), N the total run count,
+      which makes the quadratic terms uncorrelated (Montgomery 2013, Sec. 11.4.2).
+    * ``"face"``: alpha = 1.
+    """
+    f = 2 ** (k - fraction_p)
+    if kind == "rotatable":
+        return f**0.25
+    if kind == "orthogonal":
+        n = f + 2 * k + center
+        return (f * (np.sqrt(n) - np.sqrt(f)) ** 2 / 4.0) ** 0.25
+    if kind in ("face", "face-centred", "face-centered"):
+        return 1.0
+    raise ConfigError(f"unknown CCD alpha {kind!r}; use rotatable, orthogonal or face.")
+
+
+def central_composite(
+    k: int,
+    kind: str = "circumscribed",
+    alpha: str | float = "rotatable",
+    center: int = 6,
+    fraction_p: int = 0,
+) -> np.ndarray:
+    """Central composite design: 2^(k-p) factorial + 2k axial + centre runs.
+
+    Parameters
+    ----------
+    k : int
+        Number of factors (2 or more).
+    kind : {"circumscribed", "inscribed", "face-centred"}
+        Circumscribed: factorial at +-1, axial at +-alpha. Inscribed: the same design
+        scaled by 1/alpha so the axial points sit at +-1. Face-centred: alpha = 1.
+    alpha : {"rotatable", "orthogonal"} or float
+        How alpha is chosen (see :func:`ccd_alpha`); ignored for face-centred designs.
+    center : int
+        Centre runs.
+    fraction_p : int
+        Use a 2^(k-p) fraction (standard generators) for the factorial part.
+
+    Returns
+    -------
+    numpy.ndarray
+        Factorial rows, then axial rows (-alpha, +alpha for each factor in turn), then
+        centre rows.
+    """
+    if k < 2:
+        raise ConfigError("a central composite design needs at least two factors.")
+    kind = {"ccc": "circumscribed", "cci": "inscribed", "ccf": "face-centred",
+            "face": "face-centred", "face-centered": "face-centred"}.get(kind, kind)
+    if kind not in ("circumscribed", "inscribed", "face-centred"):
+        raise ConfigError(
+            f"unknown CCD type {kind!r}; use circumscribed, inscribed or face-centred."
+        )
+    if kind == "face-centred":
+        a = 1.0
+    elif isinstance(alpha, str):
+        a = ccd_alpha(k, alpha, center, fraction_p)
+    else:
+        a = float(alpha)
+        if a <= 0:
+            raise ConfigError("the CCD axial distance alpha must be positive.")
+    fact = fractional_factorial(k, fraction_p) if fraction_p else _two_level_full(k)
+    axial = np.zeros((2 * k, k))
+    for i in range(k):
+        axial[2 * i, i] = -a
+        axial[2 * i + 1, i] = a
+    design = np.vstack([fact, axial, np.zeros((center, k))])
+    if kind == "inscribed":
+        design = design / a
+    return design
+
+
+# ---------------------------------------------------------------------------------------
+# Steepest ascent
+# ---------------------------------------------------------------------------------------
+
+
+def steepest_ascent(
+    coefficients, step: float = 1.0, n_steps: int = 5, base: int | None = None,
+    descent: bool = False,
+) -> np.ndarray:
+    """Points along the path of steepest ascent of a first-order model.
+
+    From y = b0 + sum b_i x_i (coded), the path moves in proportion to the b_i
+    (Montgomery 2013, Sec. 11.2): the ``base`` factor (by default the one with the
+    largest |b_i|) moves ``step`` coded units per step and every other factor moves
+    ``step * b_j / |b_base|``.
+
+    Parameters
+    ----------
+    coefficients : sequence of float
+        First-order coefficients b_1 .. b_k (no intercept), coded units.
+    step : float
+        Step of the base factor [coded units].
+    n_steps : int
+        Number of steps after the origin.
+    base : int, optional
+        Index of the base factor.
+    descent : bool
+        Follow steepest descent instead.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_steps + 1, k)`` coded points, the origin first.
+    """
+    b = np.asarray(coefficients, dtype=float)
+    if b.ndim != 1 or not np.any(b):
+        raise ConfigError("the first-order model has no slope, so there is no ascent path.")
+    if base is None:
+        base = int(np.argmax(np.abs(b)))
+    if b[base] == 0:
+        raise ConfigError("the base factor of the ascent path has a zero coefficient.")
+    delta = step * b / abs(b[base])
+    if descent:
+        delta = -delta
+    return np.arange(n_steps + 1)[:, None] * delta[None, :]

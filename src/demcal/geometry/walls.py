@@ -1,0 +1,539 @@
+"""Wall descriptions: plane, disk, cylinder, cone, funnel, rectangle, box, triangle mesh.
+
+A wall is a pure description of a surface in its *reference* pose (time 0), with a
+``name``, a ``material`` index and a :class:`~demcal.geometry.motion.Motion`. It lowers
+itself to one or more kernel rows (``kind``, 16 float64 parameters, see
+:mod:`demcal.geometry.kernels`) with :meth:`Wall.rows`; a
+:class:`~demcal.geometry.wallset.WallSet` packs the rows of many walls into arrays and
+moves them with :func:`transform_rows`.
+
+All lengths are in metres [m]; direction vectors need not be normalised.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from demcal.errors import ConfigError, DataError
+from demcal.geometry import kernels as K
+from demcal.geometry.motion import Motion, as_motion
+
+__all__ = [
+    "Wall",
+    "Plane",
+    "Disk",
+    "Cylinder",
+    "Cone",
+    "Funnel",
+    "Rect",
+    "Box",
+    "TriangleMesh",
+    "transform_rows",
+]
+
+
+def _vec3(value, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ConfigError(f"{name} must be three finite numbers, got {value!r}.")
+    return arr
+
+
+def _unit(value, name: str) -> np.ndarray:
+    arr = _vec3(value, name)
+    norm = float(np.linalg.norm(arr))
+    if norm == 0.0:
+        raise ConfigError(f"{name} must be a non-zero direction vector, got {value!r}.")
+    return arr / norm
+
+
+def _positive(value, name: str, allow_zero: bool = False) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ConfigError(f"{name} must be a finite number {bound} [m], got {value!r}.")
+    return v
+
+
+def _row() -> np.ndarray:
+    return np.zeros(K.PARAM_WIDTH)
+
+
+class Wall:
+    """Base class: a named surface with a material index and a motion."""
+
+    kind_name = "wall"
+
+    def __init__(self, name: str | None = None, material: int = 0, motion=None):
+        if name is not None and (not isinstance(name, str) or not name):
+            raise ConfigError(f"a wall name must be a non-empty string, got {name!r}.")
+        self.name = name
+        if int(material) != material or material < 0:
+            raise ConfigError(f"a wall material must be an index >= 0, got {material!r}.")
+        self.material = int(material)
+        self.motion: Motion = as_motion(motion)
+
+    def rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """Kernel rows in the reference pose: ``kind int32[k]``, ``params float64[k, 16]``."""
+        raise NotImplementedError
+
+    def reference_origin(self) -> np.ndarray:
+        """Reference point [m] about which torques on this wall are reported.
+
+        The rotation point of a :class:`~demcal.geometry.motion.Rotation`, otherwise
+        the centre of the wall's bounding box (the origin for infinite planes: their
+        point).
+        """
+        point = getattr(self.motion, "point", None)
+        if point is not None:
+            return np.asarray(point, dtype=float)
+        return self._centre()
+
+    def _centre(self) -> np.ndarray:
+        kinds, params = self.rows()
+        box = aabb_rows(kinds, params)
+        lo = box[:, :3].min(axis=0)
+        hi = box[:, 3:].max(axis=0)
+        if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+            return params[0, 0:3].copy()
+        return 0.5 * (lo + hi)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r}, material={self.material})"
+
+
+class Plane(Wall):
+    """An infinite plane through ``point`` with unit ``normal`` pointing into the domain.
+
+    One-sided: a particle behind the plane (signed distance < radius) is pushed back
+    along the normal.
+    """
+
+    kind_name = "plane"
+
+    def __init__(self, point=(0, 0, 0), normal=(0, 0, 1), **kw):
+        super().__init__(**kw)
+        self.point = _vec3(point, "plane point")
+        self.normal = _unit(normal, "plane normal")
+
+    def rows(self):
+        p = _row()
+        p[0:3] = self.point
+        p[3:6] = self.normal
+        return np.array([K.PLANE], np.int32), p[None, :]
+
+
+class Disk(Wall):
+    """A flat disk (or annulus when ``inner_radius > 0``) centred at ``centre`` with
+    unit ``normal``; two-sided."""
+
+    kind_name = "disk"
+
+    def __init__(self, centre=(0, 0, 0), normal=(0, 0, 1), radius=1.0, inner_radius=0.0, **kw):
+        super().__init__(**kw)
+        self.centre = _vec3(centre, "disk centre")
+        self.normal = _unit(normal, "disk normal")
+        self.radius = _positive(radius, "disk radius")
+        self.inner_radius = _positive(inner_radius, "disk inner_radius", allow_zero=True)
+        if self.inner_radius >= self.radius:
+            raise ConfigError(
+                f"disk inner_radius ({inner_radius}) must be smaller than its radius ({radius})."
+            )
+
+    def rows(self):
+        p = _row()
+        p[0:3] = self.centre
+        p[3:6] = self.normal
+        p[6] = self.radius
+        p[7] = self.inner_radius
+        return np.array([K.DISK], np.int32), p[None, :]
+
+
+class Cylinder(Wall):
+    """A finite cylindrical shell: base circle centre ``base``, ``axis`` towards the top,
+    ``radius``, ``length``; two-sided, open ends unless ``bottom``/``top`` caps are asked
+    for (flat disks, same group)."""
+
+    kind_name = "cylinder"
+
+    def __init__(
+        self,
+        base=(0, 0, 0),
+        axis=(0, 0, 1),
+        radius=1.0,
+        length=1.0,
+        bottom: bool = False,
+        top: bool = False,
+        **kw,
+    ):
+        super().__init__(**kw)
+        self.base = _vec3(base, "cylinder base")
+        self.axis = _unit(axis, "cylinder axis")
+        self.radius = _positive(radius, "cylinder radius")
+        self.length = _positive(length, "cylinder length")
+        self.bottom = bool(bottom)
+        self.top = bool(top)
+
+    def rows(self):
+        p = _row()
+        p[0:3] = self.base
+        p[3:6] = self.axis
+        p[6] = self.radius
+        p[7] = self.length
+        kinds = [K.CYLINDER]
+        params = [p]
+        for on, centre in ((self.bottom, self.base), (self.top, self.base + self.length * self.axis)):
+            if on:
+                q = _row()
+                q[0:3] = centre
+                q[3:6] = self.axis
+                q[6] = self.radius
+                kinds.append(K.DISK)
+                params.append(q)
+        return np.array(kinds, np.int32), np.array(params)
+
+
+class Cone(Wall):
+    """A conical frustum shell from the circle of radius ``r1`` centred at ``base`` to
+    the circle of radius ``r2`` at ``base + length * axis``; two-sided, open ends."""
+
+    kind_name = "cone"
+
+    def __init__(self, base=(0, 0, 0), axis=(0, 0, 1), r1=0.5, r2=1.0, length=1.0, **kw):
+        super().__init__(**kw)
+        self.base = _vec3(base, "cone base")
+        self.axis = _unit(axis, "cone axis")
+        self.r1 = _positive(r1, "cone r1", allow_zero=True)
+        self.r2 = _positive(r2, "cone r2", allow_zero=True)
+        if self.r1 == 0.0 and self.r2 == 0.0:
+            raise ConfigError("a cone needs r1 > 0 or r2 > 0.")
+        self.length = _positive(length, "cone length")
+
+    def rows(self):
+        p = _row()
+        p[0:3] = self.base
+        p[3:6] = self.axis
+        p[6] = self.r1
+        p[7] = self.r2
+        p[8] = self.length
+        return np.array([K.CONE], np.int32), p[None, :]
+
+
+class Funnel(Wall):
+    """A funnel: an optional outlet pipe (cylinder) below a conical hopper.
+
+    Parameters
+    ----------
+    outlet : (3,) array
+        Centre of the outlet's lower opening [m].
+    outlet_radius : float
+        Inner radius of the outlet [m].
+    top_radius : float
+        Radius of the funnel's upper rim [m].
+    cone_height : float
+        Axial height of the conical part [m].
+    outlet_length : float
+        Length of the outlet pipe below the cone [m]; 0 for none.
+    axis : (3,) array
+        Direction from the outlet up to the rim (default +z).
+    """
+
+    kind_name = "funnel"
+
+    def __init__(
+        self,
+        outlet=(0, 0, 0),
+        outlet_radius=0.01,
+        top_radius=0.05,
+        cone_height=0.05,
+        outlet_length=0.0,
+        axis=(0, 0, 1),
+        **kw,
+    ):
+        super().__init__(**kw)
+        self.outlet = _vec3(outlet, "funnel outlet")
+        self.axis = _unit(axis, "funnel axis")
+        self.outlet_radius = _positive(outlet_radius, "funnel outlet_radius")
+        self.top_radius = _positive(top_radius, "funnel top_radius")
+        self.cone_height = _positive(cone_height, "funnel cone_height")
+        self.outlet_length = _positive(outlet_length, "funnel outlet_length", allow_zero=True)
+
+    @property
+    def rim(self) -> np.ndarray:
+        """Centre of the upper rim [m]."""
+        return self.outlet + (self.outlet_length + self.cone_height) * self.axis
+
+    def rows(self):
+        kinds = []
+        params = []
+        if self.outlet_length > 0.0:
+            p = _row()
+            p[0:3] = self.outlet
+            p[3:6] = self.axis
+            p[6] = self.outlet_radius
+            p[7] = self.outlet_length
+            kinds.append(K.CYLINDER)
+            params.append(p)
+        q = _row()
+        q[0:3] = self.outlet + self.outlet_length * self.axis
+        q[3:6] = self.axis
+        q[6] = self.outlet_radius
+        q[7] = self.top_radius
+        q[8] = self.cone_height
+        kinds.append(K.CONE)
+        params.append(q)
+        return np.array(kinds, np.int32), np.array(params)
+
+
+class Rect(Wall):
+    """A finite rectangle: ``centre`` and two orthogonal half-extent edge vectors
+    ``u``, ``v`` (the rectangle is ``centre + s u + t v``, ``|s|, |t| <= 1``); two-sided.
+
+    Use :meth:`from_size` for a rectangle given by normal and side lengths.
+    """
+
+    kind_name = "rect"
+
+    def __init__(self, centre=(0, 0, 0), u=(0.5, 0, 0), v=(0, 0.5, 0), **kw):
+        super().__init__(**kw)
+        self.centre = _vec3(centre, "rect centre")
+        self.u = _vec3(u, "rect u")
+        self.v = _vec3(v, "rect v")
+        lu = float(np.linalg.norm(self.u))
+        lv = float(np.linalg.norm(self.v))
+        if lu == 0.0 or lv == 0.0:
+            raise ConfigError("rect half-extent vectors u and v must be non-zero.")
+        if abs(float(self.u @ self.v)) > 1e-9 * lu * lv:
+            raise ConfigError("rect half-extent vectors u and v must be orthogonal.")
+
+    @classmethod
+    def from_size(cls, centre, normal, width, length, width_direction=None, **kw) -> "Rect":
+        """A ``width`` x ``length`` [m] rectangle with unit ``normal``; ``width`` runs along
+        ``width_direction`` (projected onto the plane; default: any in-plane direction)."""
+        n = _unit(normal, "rect normal")
+        if width_direction is None:
+            e1 = np.array(K.perpendicular(*n))
+        else:
+            w = _vec3(width_direction, "rect width_direction")
+            e1 = w - (w @ n) * n
+            if np.linalg.norm(e1) < 1e-12:
+                raise ConfigError("rect width_direction must not be parallel to its normal.")
+            e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n, e1)
+        width = _positive(width, "rect width")
+        length = _positive(length, "rect length")
+        return cls(centre, 0.5 * width * e1, 0.5 * length * e2, **kw)
+
+    @property
+    def normal(self) -> np.ndarray:
+        n = np.cross(self.u, self.v)
+        return n / np.linalg.norm(n)
+
+    def rows(self):
+        p = _row()
+        p[0:3] = self.centre
+        p[3:6] = self.u
+        p[6:9] = self.v
+        p[9:12] = self.normal
+        p[12] = self.u @ self.u
+        p[13] = self.v @ self.v
+        return np.array([K.RECT], np.int32), p[None, :]
+
+
+class Box(Wall):
+    """An axis-aligned box from corner ``lower`` to corner ``upper`` made of six
+    rectangles (five with ``open_top=True``: no face at ``z = upper[2]``).
+
+    Face normals point into the box; all faces are one group named after the box.
+    """
+
+    kind_name = "box"
+
+    def __init__(self, lower=(0, 0, 0), upper=(1, 1, 1), open_top: bool = False, **kw):
+        super().__init__(**kw)
+        self.lower = _vec3(lower, "box lower corner")
+        self.upper = _vec3(upper, "box upper corner")
+        if np.any(self.upper <= self.lower):
+            raise ConfigError(
+                f"box upper corner {self.upper.tolist()} must exceed its lower corner "
+                f"{self.lower.tolist()} in x, y and z."
+            )
+        self.open_top = bool(open_top)
+
+    def faces(self) -> list[Rect]:
+        lo, hi = self.lower, self.upper
+        c = 0.5 * (lo + hi)
+        h = 0.5 * (hi - lo)
+        ex, ey, ez = np.eye(3)
+        faces = [
+            # (centre, u, v) with u x v pointing inwards
+            (np.array([c[0], c[1], lo[2]]), h[0] * ex, h[1] * ey),  # bottom, +z
+            (np.array([lo[0], c[1], c[2]]), h[1] * ey, h[2] * ez),  # x-, +x
+            (np.array([hi[0], c[1], c[2]]), h[2] * ez, h[1] * ey),  # x+, -x
+            (np.array([c[0], lo[1], c[2]]), h[2] * ez, h[0] * ex),  # y-, +y
+            (np.array([c[0], hi[1], c[2]]), h[0] * ex, h[2] * ez),  # y+, -y
+        ]
+        if not self.open_top:
+            faces.append((np.array([c[0], c[1], hi[2]]), h[1] * ey, h[0] * ex))  # top, -z
+        return [Rect(cc, u, v, material=self.material) for cc, u, v in faces]
+
+    def rows(self):
+        parts = [f.rows() for f in self.faces()]
+        return (
+            np.concatenate([k for k, _ in parts]).astype(np.int32),
+            np.concatenate([p for _, p in parts]),
+        )
+
+
+class TriangleMesh(Wall):
+    """A surface of triangles (one wall group, one kernel row per triangle); two-sided.
+
+    Build it from ``vertices (n, 3)`` and ``faces (m, 3)`` integer indices, or from
+    ``triangles (m, 3, 3)`` with :meth:`from_triangles`, or from an ASCII or binary STL
+    file with :meth:`from_stl`. Degenerate (zero-area) triangles are dropped.
+    """
+
+    kind_name = "mesh"
+
+    def __init__(self, vertices, faces, **kw):
+        super().__init__(**kw)
+        vertices = np.asarray(vertices, dtype=float)
+        faces = np.asarray(faces)
+        if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
+            raise ConfigError("mesh vertices must be an (n, 3) array of finite numbers.")
+        if faces.ndim != 2 or faces.shape[1] != 3 or faces.size == 0:
+            raise ConfigError("mesh faces must be a non-empty (m, 3) array of vertex indices.")
+        if not np.issubdtype(faces.dtype, np.integer):
+            raise ConfigError("mesh faces must hold integer vertex indices.")
+        if faces.min() < 0 or faces.max() >= len(vertices):
+            raise ConfigError(
+                f"mesh faces refer to vertex {int(faces.max())} but there are only "
+                f"{len(vertices)} vertices."
+            )
+        tri = vertices[faces]
+        area2 = np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+        scale = max(float(np.ptp(vertices, axis=0).max()), 1e-300)
+        keep = area2 > 1e-12 * scale * scale
+        if not np.any(keep):
+            raise ConfigError("mesh has no triangle with a non-zero area.")
+        self.dropped = int((~keep).sum())
+        self.vertices = vertices
+        self.faces = faces[keep].astype(np.int64)
+
+    @classmethod
+    def from_triangles(cls, triangles, **kw) -> "TriangleMesh":
+        """A mesh from an ``(m, 3, 3)`` array of triangle corner coordinates [m]."""
+        tri = np.asarray(triangles, dtype=float)
+        if tri.ndim != 3 or tri.shape[1:] != (3, 3):
+            raise ConfigError("triangles must be an (m, 3, 3) array of corner coordinates.")
+        return cls(tri.reshape(-1, 3), np.arange(3 * len(tri)).reshape(-1, 3), **kw)
+
+    @classmethod
+    def from_stl(cls, path, scale: float = 1.0, translate=(0.0, 0.0, 0.0), **kw) -> "TriangleMesh":
+        """Read an ASCII or binary STL file.
+
+        ``scale`` multiplies the coordinates (``0.001`` for a CAD file in millimetres),
+        then ``translate`` [m] is added. The name defaults to the file's stem.
+        """
+        from stl import mesh as stl_mesh
+
+        path = Path(path)
+        if not path.is_file():
+            raise DataError(f"STL file {str(path)!r} does not exist: check the path.")
+        try:
+            m = stl_mesh.Mesh.from_file(str(path))
+        except Exception as exc:  # numpy-stl raises several types on bad input
+            raise DataError(
+                f"cannot read {str(path)!r} as an STL file ({exc}): export it again as ASCII "
+                f"or binary STL."
+            ) from None
+        if len(m.vectors) == 0:
+            raise DataError(f"STL file {str(path)!r} holds no triangles: export the surface again.")
+        tri = np.asarray(m.vectors, dtype=float) * float(scale) + _vec3(translate, "translate")
+        kw.setdefault("name", path.stem)
+        return cls.from_triangles(tri, **kw)
+
+    def triangles(self) -> np.ndarray:
+        """The ``(m, 3, 3)`` corner coordinates in the reference pose [m]."""
+        return self.vertices[self.faces]
+
+    def rows(self):
+        tri = self.triangles()
+        m = len(tri)
+        p = np.zeros((m, K.PARAM_WIDTH))
+        p[:, 0:9] = tri.reshape(m, 9)
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        p[:, 9:12] = n / np.linalg.norm(n, axis=1)[:, None]
+        return np.full(m, K.TRIANGLE, np.int32), p
+
+
+def transform_rows(kinds: np.ndarray, params: np.ndarray, rot: np.ndarray, trans: np.ndarray):
+    """Apply the rigid transform ``x -> rot @ x + trans`` to kernel rows.
+
+    Points (slots 0:3 of every kind, 3:9 of triangles) are moved; direction and edge
+    vectors (3:6 of other kinds, 6:9 of rects, 9:12 of rects and triangles) are rotated;
+    radii, lengths and squared lengths are unchanged. Returns new arrays.
+    """
+    out = params.copy()
+    rt = rot.T
+    out[:, 0:3] = params[:, 0:3] @ rt + trans
+    tri = kinds == K.TRIANGLE
+    rect = kinds == K.RECT
+    if np.any(tri):
+        out[tri, 3:6] = params[tri, 3:6] @ rt + trans
+        out[tri, 6:9] = params[tri, 6:9] @ rt + trans
+    other = ~tri
+    if np.any(other):
+        out[other, 3:6] = params[other, 3:6] @ rt
+    if np.any(rect):
+        out[rect, 6:9] = params[rect, 6:9] @ rt
+    both = tri | rect
+    if np.any(both):
+        out[both, 9:12] = params[both, 9:12] @ rt
+    return out
+
+
+def _circle_extent(axis: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """Half-extents along x, y, z of circles with unit ``axis`` (k, 3), ``radius`` (k,)."""
+    return radius[:, None] * np.sqrt(np.clip(1.0 - axis * axis, 0.0, None))
+
+
+def aabb_rows(kinds: np.ndarray, params: np.ndarray) -> np.ndarray:
+    """Axis-aligned bounding boxes ``(k, 6)`` = xmin, ymin, zmin, xmax, ymax, zmax of
+    kernel rows (``inf`` for infinite planes)."""
+    k = len(kinds)
+    box = np.empty((k, 6))
+    box[:, :3] = -np.inf
+    box[:, 3:] = np.inf
+    c = params[:, 0:3]
+    a = params[:, 3:6]
+
+    m = kinds == K.DISK
+    if np.any(m):
+        e = _circle_extent(a[m], params[m, 6])
+        box[m, :3] = c[m] - e
+        box[m, 3:] = c[m] + e
+
+    for kind, r_a, r_b, length_slot in ((K.CYLINDER, 6, 6, 7), (K.CONE, 6, 7, 8)):
+        m = kinds == kind
+        if np.any(m):
+            c2 = c[m] + params[m, length_slot][:, None] * a[m]
+            e1 = _circle_extent(a[m], params[m, r_a])
+            e2 = _circle_extent(a[m], params[m, r_b])
+            box[m, :3] = np.minimum(c[m] - e1, c2 - e2)
+            box[m, 3:] = np.maximum(c[m] + e1, c2 + e2)
+
+    m = kinds == K.RECT
+    if np.any(m):
+        e = np.abs(params[m, 3:6]) + np.abs(params[m, 6:9])
+        box[m, :3] = c[m] - e
+        box[m, 3:] = c[m] + e
+
+    m = kinds == K.TRIANGLE
+    if np.any(m):
+        corners = params[m, 0:9].reshape(-1, 3, 3)
+        box[m, :3] = corners.min(axis=1)
+        box[m, 3:] = corners.max(axis=1)
+    return box

@@ -1,0 +1,407 @@
+"""Lab records of a granular sample: moisture, bulk density, sieve table, measured angles.
+
+A :class:`LabRecord` is plain data, built from a campaign file's table by
+:meth:`LabRecord.from_dict` (which names the bad key in a :class:`ConfigError`). Its
+angles are either given as ``mean +- sd`` or measured from raw data: heap photos
+(:mod:`demcal.measure.photo`) and inclined-plane ruler readings
+(:mod:`demcal.measure.incline`); :func:`resolve_targets` turns either into the
+:class:`MeasuredAngle` targets of a calibration.
+
+Accepted table (TOML shown; every key but ``name`` is optional)::
+
+    name = "L"                      # sample name
+    moisture_percent = 6.26         # water content [%]
+    moisture_sd_percent = 1.5
+    bulk_density = 1697.95          # [kg/m^3]
+    [sieve]                         # particle-size distribution (mass %)
+    edges_mm = [0, 0.25, 0.5, 1, 2, 5, inf]   # class bounds [mm]; inf for ">= 5 mm"
+    mass_percent = [16.66, 11.37, 20.36, 14.36, 24.52, 12.73]
+    [repose]                        # angle of repose: either given ...
+    mean_deg = 31.07
+    sd_deg = 2.1
+    n = 20
+    # ... or measured: photos = ["photos/L/*.jpg"], mm_per_px = 0.2,
+    #     roi = [x0, y0, x1, y1], base_y = 820
+    [sliding]                       # inclined-plane sliding angle: given ...
+    mean_deg = 25.42
+    sd_deg = 2.6
+    n = 10
+    # ... or measured: H_mm = [...], L_mm = 300, repeats = 3
+
+The reference paper's two samples (IJABE 2020, Table 1 and Sections 2.1 and 3.1) are in
+:func:`paper_records`.
+"""
+
+from __future__ import annotations
+
+import glob
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+from scipy import stats
+
+from demcal.errors import ConfigError, DataError
+
+#: A sieve table's mass percentages must sum to 100 within this [%].
+SIEVE_SUM_TOLERANCE = 2.0
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Mean, sample standard deviation (ddof = 1), count and two-sided confidence
+    interval of the mean (Student t)."""
+
+    mean: float
+    sd: float
+    n: int
+    ci_low: float
+    ci_high: float
+    confidence: float = 0.95
+
+    def to_dict(self) -> dict:
+        return {"mean": self.mean, "sd": self.sd, "n": self.n,
+                "ci": [self.ci_low, self.ci_high], "confidence": self.confidence}
+
+
+def summarize(values, confidence: float = 0.95) -> Summary:
+    """:class:`Summary` of ``values`` (NaN ignored); the sd and CI of one value are NaN."""
+    v = np.asarray(values, dtype=float).ravel()
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        raise DataError("there are no values to summarise.")
+    mean = float(v.mean())
+    if v.size < 2:
+        return Summary(mean, float("nan"), 1, float("nan"), float("nan"), confidence)
+    sd = float(v.std(ddof=1))
+    half = float(stats.t.ppf(0.5 + confidence / 2, v.size - 1) * sd / np.sqrt(v.size))
+    return Summary(mean, sd, int(v.size), mean - half, mean + half, confidence)
+
+
+@dataclass(frozen=True)
+class MeasuredAngle:
+    """An angle measured in the lab: mean +- sd over n tests [deg]."""
+
+    mean_deg: float
+    sd_deg: float = float("nan")
+    n: int = 0
+    source: str = "given"  #: "given", "photos" or "incline readings"
+
+    def to_dict(self) -> dict:
+        return {"mean_deg": self.mean_deg, "sd_deg": self.sd_deg, "n": self.n, "source": self.source}
+
+
+@dataclass(frozen=True)
+class SieveTable:
+    """Particle-size distribution by sieving.
+
+    Attributes
+    ----------
+    edges_mm : (k + 1,) increasing class bounds [mm]; the first may be 0 ("< d") and
+        the last ``inf`` (">= d").
+    mass_percent : (k,) mass of each class [%], summing to 100 within
+        :data:`SIEVE_SUM_TOLERANCE`.
+    """
+
+    edges_mm: np.ndarray
+    mass_percent: np.ndarray
+
+    def __post_init__(self):
+        edges = np.asarray(self.edges_mm, dtype=float).ravel()
+        mass = np.asarray(self.mass_percent, dtype=float).ravel()
+        if edges.size != mass.size + 1 or mass.size == 0:
+            raise DataError(f"a sieve table needs one more class bound than classes; got "
+                            f"{edges.size} bounds for {mass.size} mass percentages.")
+        if np.isnan(edges).any() or edges[0] < 0 or np.any(np.diff(edges) <= 0):
+            raise DataError(f"sieve class bounds {edges.tolist()} must be >= 0 and increasing.")
+        if not np.all(np.isfinite(mass)) or np.any(mass < 0):
+            raise DataError(f"sieve mass percentages {mass.tolist()} must be non-negative numbers.")
+        total = mass.sum()
+        if abs(total - 100.0) > SIEVE_SUM_TOLERANCE:
+            raise DataError(f"sieve mass percentages sum to {total:.2f} %, not 100 % "
+                            f"(within {SIEVE_SUM_TOLERANCE} %); check the table.")
+        object.__setattr__(self, "edges_mm", edges)
+        object.__setattr__(self, "mass_percent", mass)
+
+    @property
+    def fractions(self) -> np.ndarray:
+        """Mass fraction of each class, normalised to sum 1 [-]."""
+        return self.mass_percent / self.mass_percent.sum()
+
+    @property
+    def lower_mm(self) -> np.ndarray:
+        return self.edges_mm[:-1]
+
+    @property
+    def upper_mm(self) -> np.ndarray:
+        return self.edges_mm[1:]
+
+    def to_dict(self) -> dict:
+        return {"edges_mm": self.edges_mm.tolist(), "mass_percent": self.mass_percent.tolist()}
+
+
+@dataclass(frozen=True)
+class PhotoSet:
+    """Heap photos to be measured for a record's angle of repose."""
+
+    patterns: tuple[str, ...]
+    mm_per_px: float | None = None
+    roi: tuple[int, int, int, int] | None = None
+    base_y: float | None = None
+
+    def paths(self, base_dir: str | Path | None = None) -> list[str]:
+        """Photo files, glob patterns expanded relative to ``base_dir``, sorted."""
+        out = []
+        for pattern in self.patterns:
+            full = pattern if base_dir is None or Path(pattern).is_absolute() else str(Path(base_dir) / pattern)
+            hits = sorted(glob.glob(full))
+            if not hits:
+                raise DataError(f"no photo matches '{full}'; check the path in the lab record.")
+            out.extend(hits)
+        return out
+
+
+@dataclass(frozen=True)
+class InclineReadings:
+    """Ruler readings of the inclined-plane test: H per reading [mm], arm L [mm]."""
+
+    H_mm: tuple[float, ...]
+    L_mm: float = 300.0
+    repeats: int | None = None
+
+
+@dataclass(frozen=True)
+class LabRecord:
+    """What the lab knows about one sample.
+
+    Attributes
+    ----------
+    name : sample name.
+    moisture_percent, moisture_sd_percent : water content [%] and its sd.
+    bulk_density : [kg/m^3].
+    sieve : particle-size distribution, if measured.
+    repose, sliding : angle of repose and sliding angle as measured (mean +- sd).
+    repose_photos : heap photos to measure instead of a given ``repose``.
+    incline : inclined-plane readings to convert instead of a given ``sliding``.
+    notes : free text.
+    """
+
+    name: str
+    moisture_percent: float | None = None
+    moisture_sd_percent: float | None = None
+    bulk_density: float | None = None
+    sieve: SieveTable | None = None
+    repose: MeasuredAngle | None = None
+    sliding: MeasuredAngle | None = None
+    repose_photos: PhotoSet | None = None
+    incline: InclineReadings | None = None
+    notes: str = ""
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], where: str = "lab record") -> "LabRecord":
+        """Build a record from a parsed table (see the module docstring for the keys).
+
+        ``where`` prefixes error messages, e.g. ``"[lab.L]"``.
+
+        Raises
+        ------
+        ConfigError
+            Unknown key, missing name, a value of the wrong type or out of range; the
+            sentence names the key.
+        """
+        if not isinstance(d, Mapping):
+            raise ConfigError(f"{where} must be a table of keys, not {type(d).__name__}.")
+        known = {"name", "moisture_percent", "moisture_sd_percent", "bulk_density", "sieve",
+                 "repose", "sliding", "notes"}
+        _unknown(d, known, where)
+        if "name" not in d or not isinstance(d["name"], str) or not d["name"].strip():
+            raise ConfigError(f"{where} needs a 'name' (the sample's name, a string).")
+        moisture = _number(d, "moisture_percent", where, 0.0, 100.0)
+        moisture_sd = _number(d, "moisture_sd_percent", where, 0.0, 100.0)
+        density = _number(d, "bulk_density", where, 0.0, None, open_low=True)
+        sieve = None
+        if "sieve" in d:
+            s = d["sieve"]
+            if not isinstance(s, Mapping):
+                raise ConfigError(f"{where}: 'sieve' must be a table with edges_mm and mass_percent.")
+            _unknown(s, {"edges_mm", "mass_percent"}, f"{where} sieve")
+            for key in ("edges_mm", "mass_percent"):
+                if key not in s:
+                    raise ConfigError(f"{where}: 'sieve.{key}' is missing.")
+            try:
+                sieve = SieveTable(_numbers(s, "edges_mm", f"{where} sieve"),
+                                   _numbers(s, "mass_percent", f"{where} sieve"))
+            except DataError as exc:
+                raise ConfigError(f"{where}: 'sieve': {exc}") from None
+        repose = photos = None
+        if "repose" in d:
+            repose, photos = _repose(d["repose"], where)
+        sliding = incline = None
+        if "sliding" in d:
+            sliding, incline = _sliding(d["sliding"], where)
+        notes = d.get("notes", "")
+        if not isinstance(notes, str):
+            raise ConfigError(f"{where}: 'notes' must be a string.")
+        return cls(name=d["name"].strip(), moisture_percent=moisture, moisture_sd_percent=moisture_sd,
+                   bulk_density=density, sieve=sieve, repose=repose, sliding=sliding,
+                   repose_photos=photos, incline=incline, notes=notes)
+
+    def to_dict(self) -> dict:
+        out: dict[str, Any] = {"name": self.name}
+        for key in ("moisture_percent", "moisture_sd_percent", "bulk_density"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
+        if self.sieve is not None:
+            out["sieve"] = self.sieve.to_dict()
+        if self.repose is not None:
+            out["repose"] = self.repose.to_dict()
+        if self.sliding is not None:
+            out["sliding"] = self.sliding.to_dict()
+        if self.notes:
+            out["notes"] = self.notes
+        return out
+
+
+def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
+                    out_dir: str | Path | None = None) -> dict[str, MeasuredAngle]:
+    """The record's measured angles, measuring photos and readings where given.
+
+    Returns ``{"repose_angle_deg": ..., "sliding_angle_deg": ...}`` (the keys present
+    in the record). Photos are found relative to ``base_dir``; annotated PNGs go to
+    ``out_dir``.
+
+    Raises
+    ------
+    DataError
+        No photo matches, or none of the photos can be measured.
+    """
+    from demcal.measure.incline import measure_incline
+    from demcal.measure.photo import measure_photos
+
+    out: dict[str, MeasuredAngle] = {}
+    if record.repose is not None:
+        out["repose_angle_deg"] = record.repose
+    elif record.repose_photos is not None:
+        ps = record.repose_photos
+        batch = measure_photos(ps.paths(base_dir), roi=ps.roi, base_y=ps.base_y,
+                               mm_per_px=ps.mm_per_px, out_dir=out_dir)
+        if batch.summary is None:
+            raise DataError(f"none of the photos of sample '{record.name}' could be measured; "
+                            f"first problem: {batch.failures[0][1]}")
+        s = batch.summary
+        out["repose_angle_deg"] = MeasuredAngle(s.mean, s.sd, s.n, "photos")
+    if record.sliding is not None:
+        out["sliding_angle_deg"] = record.sliding
+    elif record.incline is not None:
+        inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats)
+        out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, "incline readings")
+    return out
+
+
+def paper_records() -> dict[str, LabRecord]:
+    """The reference paper's two samples: surface (L) and internal (I).
+
+    Source: IJABE 2020, doi:10.25165/j.ijabe.20201304.5586 -- Table 1 (water content,
+    sieve table, average volume weight taken as bulk density [kg/m^3]), Section 2.1
+    (angle of repose over 20 photos) and Section 3.1 (sliding angle, 10 groups x 3).
+    """
+    edges = [0.0, 0.25, 0.5, 1.0, 2.0, 5.0, float("inf")]
+    return {
+        "L": LabRecord(
+            name="L", moisture_percent=6.26, moisture_sd_percent=1.5, bulk_density=1697.95,
+            sieve=SieveTable(edges, [16.66, 11.37, 20.36, 14.36, 24.52, 12.73]),
+            repose=MeasuredAngle(31.07, 2.1, 20), sliding=MeasuredAngle(25.42, 2.6, 10),
+            notes="surface sample, IJABE 2020 Table 1"),
+        "I": LabRecord(
+            name="I", moisture_percent=14.1, moisture_sd_percent=2.1, bulk_density=1087.85,
+            sieve=SieveTable(edges, [38.58, 7.9, 19.94, 8.47, 18.75, 6.36]),
+            repose=MeasuredAngle(39.88, 2.2, 20), sliding=MeasuredAngle(30.46, 3.2, 10),
+            notes="internal sample, IJABE 2020 Table 1"),
+    }
+
+
+# --- parsing helpers -------------------------------------------------------------------
+
+def _unknown(d: Mapping, known: set, where: str) -> None:
+    extra = sorted(set(d) - known)
+    if extra:
+        raise ConfigError(f"{where}: unknown key '{extra[0]}'; known keys are {', '.join(sorted(known))}.")
+
+
+def _number(d, key, where, low=None, high=None, open_low=False, required=False):
+    if key not in d:
+        if required:
+            raise ConfigError(f"{where}: '{key}' is missing.")
+        return None
+    v = d[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+        raise ConfigError(f"{where}: '{key}' must be a finite number, got {v!r}.")
+    if low is not None and (v < low or (open_low and v == low)) or high is not None and v > high:
+        rng = f"{'(' if open_low else '['}{low}, {high if high is not None else 'inf'}]"
+        raise ConfigError(f"{where}: '{key}' = {v} is outside its allowed range {rng}.")
+    return float(v)
+
+
+def _numbers(d, key, where) -> list[float]:
+    v = d[key]
+    if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
+        raise ConfigError(f"{where}: '{key}' must be a list of numbers.")
+    out = []
+    for item in v:
+        if isinstance(item, bool) or not isinstance(item, (int, float)):
+            raise ConfigError(f"{where}: '{key}' must be a list of numbers, found {item!r}.")
+        out.append(float(item))
+    return out
+
+
+def _given_angle(t, key, where) -> MeasuredAngle:
+    mean = _number(t, "mean_deg", f"{where} {key}", 0.0, 90.0, required=True)
+    sd = _number(t, "sd_deg", f"{where} {key}", 0.0, 90.0)
+    n = t.get("n", 0)
+    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+        raise ConfigError(f"{where} {key}: 'n' must be a whole number >= 0, got {n!r}.")
+    return MeasuredAngle(mean, float("nan") if sd is None else sd, n)
+
+
+def _repose(t, where):
+    if not isinstance(t, Mapping):
+        raise ConfigError(f"{where}: 'repose' must be a table (mean_deg/sd_deg/n or photos).")
+    _unknown(t, {"mean_deg", "sd_deg", "n", "photos", "mm_per_px", "roi", "base_y"}, f"{where} repose")
+    if "mean_deg" in t:
+        if "photos" in t:
+            raise ConfigError(f"{where} repose: give either 'mean_deg' or 'photos', not both.")
+        return _given_angle(t, "repose", where), None
+    if "photos" not in t:
+        raise ConfigError(f"{where} repose: give 'mean_deg' (and 'sd_deg', 'n') or 'photos'.")
+    photos = t["photos"]
+    if isinstance(photos, str):
+        photos = [photos]
+    if not photos or not all(isinstance(p, str) for p in photos):
+        raise ConfigError(f"{where} repose: 'photos' must be a file pattern or a list of them.")
+    roi = None
+    if "roi" in t:
+        roi = _numbers(t, "roi", f"{where} repose")
+        if len(roi) != 4:
+            raise ConfigError(f"{where} repose: 'roi' must be [x0, y0, x1, y1] in pixels.")
+        roi = tuple(int(v) for v in roi)
+    return None, PhotoSet(tuple(photos), _number(t, "mm_per_px", f"{where} repose", 0.0, None, True),
+                          roi, _number(t, "base_y", f"{where} repose", 0.0, None))
+
+
+def _sliding(t, where):
+    if not isinstance(t, Mapping):
+        raise ConfigError(f"{where}: 'sliding' must be a table (mean_deg/sd_deg/n or H_mm/L_mm).")
+    _unknown(t, {"mean_deg", "sd_deg", "n", "H_mm", "L_mm", "repeats"}, f"{where} sliding")
+    if "mean_deg" in t:
+        if "H_mm" in t:
+            raise ConfigError(f"{where} sliding: give either 'mean_deg' or 'H_mm', not both.")
+        return _given_angle(t, "sliding", where), None
+    if "H_mm" not in t:
+        raise ConfigError(f"{where} sliding: give 'mean_deg' (and 'sd_deg', 'n') or 'H_mm' readings.")
+    H = _numbers(t, "H_mm", f"{where} sliding")
+    L = _number(t, "L_mm", f"{where} sliding", 0.0, None, open_low=True)
+    repeats = t.get("repeats")
+    if repeats is not None and (isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1):
+        raise ConfigError(f"{where} sliding: 'repeats' must be a whole number >= 1.")
+    return None, InclineReadings(tuple(H), 300.0 if L is None else L, repeats)

@@ -1,0 +1,1 @@
+"""Particles: materials (engine helper), templates, size distributions, insertion (geometry helper)."""

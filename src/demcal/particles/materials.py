@@ -1,0 +1,272 @@
+"""Materials and material-pair interactions, laid out as in EDEM.
+
+A :class:`Material` holds the per-material bulk properties (density, shear modulus,
+Poisson ratio, yield strength); an :class:`Interaction` holds the per-pair contact
+properties (restitution, static and rolling friction, and the Hysteretic Spring
+model's damping and stiffness factors). Walls have materials too: a wall made of
+steel uses the (particle material, steel) interaction.
+
+The defaults of :func:`soil` are the paper's Table 2 (Xie et al., IJABE 13(4), 2020,
+DOI 10.25165/j.ijabe.20201304.5586): Poisson ratio 0.46, density 1687.85 kg/m3,
+shear modulus 1e6 Pa; restitution 0.6, static friction 0.4, rolling ("dynamic")
+friction 0.2, damping factor 0.1 (centres of the Table 2 ranges), stiffness factor
+0.95. The paper does not state a yield strength; :data:`SOIL_YIELD_STRENGTH` = 1e6 Pa
+is our choice (equal to the shear modulus) and is documented as such.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from demcal.errors import ConfigError
+
+#: Yield strength [Pa] used for the paper's soil (the paper does not state one).
+SOIL_YIELD_STRENGTH = 1.0e6
+
+
+def _finite(value, name: str) -> float:
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be a number, got {value!r}.") from None
+    if not math.isfinite(x):
+        raise ConfigError(f"{name} must be a finite number, got {value!r}.")
+    return x
+
+
+@dataclass(frozen=True)
+class Material:
+    """Bulk properties of one material (particle or wall).
+
+    Parameters
+    ----------
+    density : float
+        Density [kg/m3], > 0.
+    shear_modulus : float
+        Shear modulus G [Pa], > 0. Young's modulus is ``E = 2 G (1 + poisson_ratio)``.
+    poisson_ratio : float
+        Poisson ratio, in [0, 0.5).
+    yield_strength : float
+        Yield strength [Pa] used by the Hysteretic Spring and linear spring models
+        (loading stiffness ``K1 = 5 R* min(Y_i, Y_j)``, Walton 2006), > 0.
+    name : str
+        Label used in error messages and outputs.
+    """
+
+    density: float
+    shear_modulus: float
+    poisson_ratio: float
+    yield_strength: float = SOIL_YIELD_STRENGTH
+    name: str = "material"
+
+    def __post_init__(self):
+        d = _finite(self.density, f"{self.name}.density")
+        g = _finite(self.shear_modulus, f"{self.name}.shear_modulus")
+        nu = _finite(self.poisson_ratio, f"{self.name}.poisson_ratio")
+        y = _finite(self.yield_strength, f"{self.name}.yield_strength")
+        if d <= 0:
+            raise ConfigError(f"{self.name}.density must be > 0 kg/m3, got {d}.")
+        if g <= 0:
+            raise ConfigError(f"{self.name}.shear_modulus must be > 0 Pa, got {g}.")
+        if not 0.0 <= nu < 0.5:
+            raise ConfigError(f"{self.name}.poisson_ratio must be in [0, 0.5), got {nu}.")
+        if y <= 0:
+            raise ConfigError(f"{self.name}.yield_strength must be > 0 Pa, got {y}.")
+        object.__setattr__(self, "density", d)
+        object.__setattr__(self, "shear_modulus", g)
+        object.__setattr__(self, "poisson_ratio", nu)
+        object.__setattr__(self, "yield_strength", y)
+
+    @property
+    def youngs_modulus(self) -> float:
+        """Young's modulus E = 2 G (1 + nu) [Pa]."""
+        return 2.0 * self.shear_modulus * (1.0 + self.poisson_ratio)
+
+
+@dataclass(frozen=True)
+class Interaction:
+    """Contact properties of one material pair (EDEM's interaction table).
+
+    Parameters
+    ----------
+    restitution : float
+        Coefficient of restitution e, in (0, 1].
+    static_friction : float
+        Coefficient of static (sliding) friction mu_s, >= 0.
+    rolling_friction : float
+        Coefficient of rolling friction mu_r, >= 0 (the paper's "dynamic friction").
+    damping_factor : float
+        Hysteretic Spring damping factor zeta (paper Eq. 3), >= 0: extra viscous
+        normal damping ``c = 2 zeta |beta| sqrt(m* K)`` with K the branch stiffness.
+    stiffness_factor : float
+        Hysteretic Spring / linear model stiffness factor xi (paper Eq. 3), > 0:
+        tangential stiffness ``k_t = xi K1``.
+    rolling_damping : float
+        Viscous damping ratio eta_r of the elastic-plastic spring-dashpot rolling model
+        (Ai et al. 2011, their Eq. 14), in [0, 1]; 0.3 as in their tests.
+    """
+
+    restitution: float = 0.6
+    static_friction: float = 0.4
+    rolling_friction: float = 0.2
+    damping_factor: float = 0.0
+    stiffness_factor: float = 0.95
+    rolling_damping: float = 0.3
+
+    def __post_init__(self):
+        e = _finite(self.restitution, "restitution")
+        if not 0.0 < e <= 1.0:
+            raise ConfigError(f"restitution must be in (0, 1], got {e}.")
+        for nm in ("static_friction", "rolling_friction", "damping_factor"):
+            v = _finite(getattr(self, nm), nm)
+            if v < 0:
+                raise ConfigError(f"{nm} must be >= 0, got {v}.")
+            object.__setattr__(self, nm, v)
+        xi = _finite(self.stiffness_factor, "stiffness_factor")
+        if xi <= 0:
+            raise ConfigError(f"stiffness_factor must be > 0, got {xi}.")
+        eta = _finite(self.rolling_damping, "rolling_damping")
+        if not 0.0 <= eta <= 1.0:
+            raise ConfigError(f"rolling_damping must be in [0, 1], got {eta}.")
+        object.__setattr__(self, "restitution", e)
+        object.__setattr__(self, "stiffness_factor", xi)
+        object.__setattr__(self, "rolling_damping", eta)
+
+
+def soil(name: str = "soil") -> Material:
+    """The paper's particulate material (Table 2 defaults; yield strength our choice)."""
+    return Material(density=1687.85, shear_modulus=1.0e6, poisson_ratio=0.46,
+                    yield_strength=SOIL_YIELD_STRENGTH, name=name)
+
+
+def soil_interaction() -> Interaction:
+    """The paper's soil-soil interaction: Table 2 range centres, stiffness factor 0.95."""
+    return Interaction(restitution=0.6, static_friction=0.4, rolling_friction=0.2,
+                       damping_factor=0.1, stiffness_factor=0.95)
+
+
+def steel(name: str = "steel") -> Material:
+    """A generic steel wall material (density 7800 kg/m3, G 7e10 Pa, nu 0.3)."""
+    return Material(density=7800.0, shear_modulus=7.0e10, poisson_ratio=0.3,
+                    yield_strength=2.5e8, name=name)
+
+
+# --------------------------------------------------------------------------------------
+# Pair table: the engine's flat array of per-material-pair constants.
+# --------------------------------------------------------------------------------------
+#: Column indices of :func:`pair_table` rows.
+P_ESTAR, P_GSTAR, P_BETA, P_E, P_MU_S, P_MU_R, P_YMIN, P_ZETA, P_XI, P_ETA_R = range(10)
+N_PAIR_PARAMS = 10
+
+
+def _beta(e: float) -> float:
+    """beta = ln e / sqrt(ln^2 e + pi^2) (Tsuji et al. 1992; EDEM manual)."""
+    if e >= 1.0:
+        return 0.0
+    le = math.log(e)
+    return le / math.sqrt(le * le + math.pi * math.pi)
+
+
+@dataclass
+class MaterialTable:
+    """Materials plus a complete interaction table, resolved to engine arrays.
+
+    Parameters
+    ----------
+    materials : list of Material
+    interactions : Interaction or dict
+        One :class:`Interaction` for every pair, or a dict keyed by pairs of material
+        indices or names ``(a, b)`` (order irrelevant); the key ``"default"`` covers
+        pairs not listed. A missing pair is a :class:`ConfigError`.
+    """
+
+    materials: list
+    interactions: object
+    table: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        mats = self.materials
+        if isinstance(mats, Material):
+            mats = [mats]
+        mats = list(mats)
+        if not mats:
+            raise ConfigError("materials must list at least one Material.")
+        for m in mats:
+            if not isinstance(m, Material):
+                raise ConfigError(f"materials must be Material objects, got {m!r}.")
+        self.materials = mats
+        n = len(mats)
+        inter = self.interactions
+        pairs: dict = {}
+        default = None
+        if isinstance(inter, Interaction):
+            default = inter
+        elif isinstance(inter, dict):
+            for key, val in inter.items():
+                if not isinstance(val, Interaction):
+                    raise ConfigError(f"interaction {key!r} must be an Interaction, got {val!r}.")
+                if key == "default":
+                    default = val
+                    continue
+                try:
+                    a, b = key
+                except (TypeError, ValueError):
+                    raise ConfigError(
+                        f"interaction keys must be pairs of materials, got {key!r}.") from None
+                ia, ib = self.index(a), self.index(b)
+                pairs[(ia, ib)] = val
+                pairs[(ib, ia)] = val
+        else:
+            raise ConfigError("interactions must be an Interaction or a dict of them.")
+        tab = np.zeros((n, n, N_PAIR_PARAMS))
+        for i in range(n):
+            for j in range(n):
+                it = pairs.get((i, j), default)
+                if it is None:
+                    raise ConfigError(
+                        f"no interaction defined between materials {mats[i].name!r} and "
+                        f"{mats[j].name!r}; add one or a 'default' interaction.")
+                tab[i, j] = pair_row(mats[i], mats[j], it)
+        self.table = tab
+
+    def index(self, ref) -> int:
+        """Index of a material given by index or name."""
+        if isinstance(ref, (int, np.integer)) and not isinstance(ref, bool):
+            if 0 <= int(ref) < len(self.materials):
+                return int(ref)
+            raise ConfigError(
+                f"material index {ref} out of range (there are {len(self.materials)}).")
+        for k, m in enumerate(self.materials):
+            if m.name == ref:
+                return k
+        if isinstance(ref, Material):
+            for k, m in enumerate(self.materials):
+                if m == ref:
+                    return k
+        names = [m.name for m in self.materials]
+        raise ConfigError(f"unknown material {ref!r}; known materials are {names}.")
+
+
+def pair_row(mi: Material, mj: Material, it: Interaction) -> np.ndarray:
+    """Engine constants for one material pair.
+
+    E* = [(1 - nu_i^2)/E_i + (1 - nu_j^2)/E_j]^-1 and
+    G* = [(2 - nu_i)/G_i + (2 - nu_j)/G_j]^-1 as in the EDEM manual (Hertz-Mindlin).
+    """
+    row = np.zeros(N_PAIR_PARAMS)
+    row[P_ESTAR] = 1.0 / ((1 - mi.poisson_ratio ** 2) / mi.youngs_modulus
+                          + (1 - mj.poisson_ratio ** 2) / mj.youngs_modulus)
+    row[P_GSTAR] = 1.0 / ((2 - mi.poisson_ratio) / mi.shear_modulus
+                          + (2 - mj.poisson_ratio) / mj.shear_modulus)
+    row[P_BETA] = _beta(it.restitution)
+    row[P_E] = it.restitution
+    row[P_MU_S] = it.static_friction
+    row[P_MU_R] = it.rolling_friction
+    row[P_YMIN] = min(mi.yield_strength, mj.yield_strength)
+    row[P_ZETA] = it.damping_factor
+    row[P_XI] = it.stiffness_factor
+    row[P_ETA_R] = it.rolling_damping
+    return row

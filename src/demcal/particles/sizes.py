@@ -1,0 +1,278 @@
+"""Particle size distributions, as scale factors applied to a template.
+
+Every distribution draws ``n`` scale factors from a :class:`numpy.random.Generator`
+(:meth:`SizeDistribution.sample`), so the same seed gives the same sizes. A scale
+factor ``s`` multiplies all lengths of a :class:`~demcal.particles.templates.ParticleTemplate`
+(mass ~ s^3, inertia ~ s^5). The paper draws ``s`` uniformly in 0.5-1.5
+(:func:`paper_sizes`).
+
+* :class:`Fixed` -- every particle the same;
+* :class:`Uniform` -- ``s ~ U(low, high)``;
+* :class:`Normal` -- normal, truncated to ``[low, high]`` (rejection sampling);
+* :class:`SieveTable` -- mass fractions retained between sieve apertures; particles are
+  drawn per class in proportion to number (mass fraction / mean particle mass of the
+  class), sizes uniform within a class, and divided by a reference size.
+
+:func:`size_distribution` builds one from a plain mapping (a campaign file's table).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from demcal.errors import ConfigError
+
+__all__ = [
+    "SizeDistribution",
+    "Fixed",
+    "Uniform",
+    "Normal",
+    "SieveTable",
+    "paper_sizes",
+    "size_distribution",
+    "as_generator",
+]
+
+
+def as_generator(seed) -> np.random.Generator:
+    """A Generator from a seed (int, SeedSequence, None) or a Generator itself."""
+    if isinstance(seed, np.random.Generator):
+        return seed
+    return np.random.default_rng(seed)
+
+
+def _finite_positive(value, name: str) -> float:
+    v = float(value)
+    if not (math.isfinite(v) and v > 0.0):
+        raise ConfigError(f"{name} must be a number > 0, got {value!r}.")
+    return v
+
+
+class SizeDistribution:
+    """Base class: scale factors > 0."""
+
+    def sample(self, n: int, seed=None) -> np.ndarray:
+        """``n`` scale factors (float64) drawn with ``seed`` (int or Generator)."""
+        raise NotImplementedError
+
+    @property
+    def max_scale(self) -> float:
+        """Largest scale factor this distribution can return."""
+        raise NotImplementedError
+
+    @property
+    def min_scale(self) -> float:
+        """Smallest scale factor this distribution can return."""
+        raise NotImplementedError
+
+    def mean_cube(self, n: int = 200_000, seed: int = 0) -> float:
+        """E[s^3] (mean volume factor); Monte Carlo unless overridden."""
+        return float(np.mean(self.sample(n, seed) ** 3))
+
+
+@dataclass(frozen=True)
+class Fixed(SizeDistribution):
+    """Every particle at scale ``value``."""
+
+    value: float = 1.0
+
+    def __post_init__(self):
+        _finite_positive(self.value, "fixed scale factor")
+
+    def sample(self, n, seed=None):
+        return np.full(int(n), float(self.value))
+
+    @property
+    def max_scale(self):
+        return float(self.value)
+
+    @property
+    def min_scale(self):
+        return float(self.value)
+
+    def mean_cube(self, n=0, seed=0):
+        return float(self.value) ** 3
+
+
+@dataclass(frozen=True)
+class Uniform(SizeDistribution):
+    """Scale factor uniform in ``[low, high]``."""
+
+    low: float = 0.5
+    high: float = 1.5
+
+    def __post_init__(self):
+        _finite_positive(self.low, "uniform size low")
+        _finite_positive(self.high, "uniform size high")
+        if self.high < self.low:
+            raise ConfigError(f"uniform size high ({self.high}) must be >= low ({self.low}).")
+
+    def sample(self, n, seed=None):
+        return as_generator(seed).uniform(self.low, self.high, int(n))
+
+    @property
+    def max_scale(self):
+        return float(self.high)
+
+    @property
+    def min_scale(self):
+        return float(self.low)
+
+    def mean_cube(self, n=0, seed=0):
+        a, b = float(self.low), float(self.high)
+        return a if a == b else (b**4 - a**4) / (4.0 * (b - a))
+
+
+@dataclass(frozen=True)
+class Normal(SizeDistribution):
+    """Normal scale factor with ``mean`` and ``std``, truncated to ``[low, high]``
+    (defaults: mean -/+ 3 std, and never below 1 % of the mean)."""
+
+    mean: float = 1.0
+    std: float = 0.1
+    low: float | None = None
+    high: float | None = None
+
+    def __post_init__(self):
+        _finite_positive(self.mean, "normal size mean")
+        if not (math.isfinite(self.std) and self.std >= 0.0):
+            raise ConfigError(f"normal size std must be >= 0, got {self.std!r}.")
+        lo = self.mean - 3.0 * self.std if self.low is None else float(self.low)
+        hi = self.mean + 3.0 * self.std if self.high is None else float(self.high)
+        lo = max(lo, 0.01 * self.mean)
+        if hi < lo:
+            raise ConfigError(f"normal size bounds [{lo}, {hi}] are empty: widen them.")
+        object.__setattr__(self, "low", lo)
+        object.__setattr__(self, "high", hi)
+
+    def sample(self, n, seed=None):
+        rng = as_generator(seed)
+        n = int(n)
+        if self.std == 0.0:
+            return np.full(n, float(np.clip(self.mean, self.low, self.high)))
+        out = np.empty(0)
+        for _ in range(1000):
+            need = n - len(out)
+            if need <= 0:
+                break
+            draw = rng.normal(self.mean, self.std, max(2 * need, 64))
+            draw = draw[(draw >= self.low) & (draw <= self.high)]
+            out = np.concatenate([out, draw[:need]])
+        if len(out) < n:
+            raise ConfigError(
+                f"normal size window [{self.low}, {self.high}] is too far in the tail of "
+                f"N({self.mean}, {self.std}): widen it."
+            )
+        return out
+
+    @property
+    def max_scale(self):
+        return float(self.high)
+
+    @property
+    def min_scale(self):
+        return float(self.low)
+
+
+@dataclass(frozen=True)
+class SieveTable(SizeDistribution):
+    """A sieve analysis: mass fractions retained between consecutive apertures.
+
+    Parameters
+    ----------
+    apertures : sequence of float
+        Increasing sieve apertures [m] (class ``i`` is ``apertures[i]..apertures[i+1]``),
+        ``len(mass_fractions) + 1`` values.
+    mass_fractions : sequence of float
+        Mass fraction of each class (normalised to sum 1).
+    reference_size : float
+        The particle size [m] that corresponds to scale 1 (e.g. the template's
+        equivalent diameter); a particle of size ``D`` gets scale ``D / reference_size``.
+
+    Sizes are uniform within a class. A class is drawn with probability proportional
+    to its number fraction ``w_i / E[D^3 | class i]`` (equal density and shape in every
+    class), so the sampled *mass* fractions converge to ``mass_fractions``.
+    """
+
+    apertures: tuple = ()
+    mass_fractions: tuple = ()
+    reference_size: float = 1.0
+
+    def __post_init__(self):
+        edges = np.asarray(self.apertures, dtype=float)
+        w = np.asarray(self.mass_fractions, dtype=float)
+        if edges.ndim != 1 or len(edges) < 2 or len(w) != len(edges) - 1:
+            raise ConfigError(
+                "a sieve table needs k+1 increasing apertures [m] and k mass fractions, "
+                f"got {len(edges)} apertures and {len(w)} fractions."
+            )
+        if np.any(edges <= 0) or np.any(np.diff(edges) <= 0) or not np.all(np.isfinite(edges)):
+            raise ConfigError("sieve apertures must be positive and strictly increasing [m].")
+        if np.any(w < 0) or not np.all(np.isfinite(w)) or w.sum() <= 0:
+            raise ConfigError("sieve mass fractions must be >= 0 with a positive sum.")
+        _finite_positive(self.reference_size, "sieve reference_size")
+        object.__setattr__(self, "apertures", tuple(edges.tolist()))
+        object.__setattr__(self, "mass_fractions", tuple((w / w.sum()).tolist()))
+
+    def number_fractions(self) -> np.ndarray:
+        """Probability of each class by number."""
+        a = np.asarray(self.apertures[:-1])
+        b = np.asarray(self.apertures[1:])
+        mean_cube = (b**4 - a**4) / (4.0 * (b - a))
+        p = np.asarray(self.mass_fractions) / mean_cube
+        return p / p.sum()
+
+    def sample(self, n, seed=None):
+        rng = as_generator(seed)
+        n = int(n)
+        cls = rng.choice(len(self.mass_fractions), size=n, p=self.number_fractions())
+        a = np.asarray(self.apertures[:-1])[cls]
+        b = np.asarray(self.apertures[1:])[cls]
+        return (a + (b - a) * rng.random(n)) / self.reference_size
+
+    @property
+    def max_scale(self):
+        w = np.asarray(self.mass_fractions)
+        top = np.nonzero(w > 0)[0].max()
+        return self.apertures[top + 1] / self.reference_size
+
+    @property
+    def min_scale(self):
+        w = np.asarray(self.mass_fractions)
+        bottom = np.nonzero(w > 0)[0].min()
+        return self.apertures[bottom] / self.reference_size
+
+
+def paper_sizes() -> Uniform:
+    """The paper's scale factors: uniform in 0.5-1.5 times the basic unit."""
+    return Uniform(0.5, 1.5)
+
+
+def size_distribution(spec) -> SizeDistribution:
+    """A size distribution from a number (fixed scale) or a mapping with ``kind``:
+
+    ``{"kind": "fixed", "value": 1}``, ``{"kind": "uniform", "low": 0.5, "high": 1.5}``,
+    ``{"kind": "normal", "mean": 1, "std": 0.1, "low": .., "high": ..}``,
+    ``{"kind": "sieve", "apertures": [...], "mass_fractions": [...], "reference_size": ..}``.
+    """
+    if isinstance(spec, SizeDistribution):
+        return spec
+    if isinstance(spec, (int, float)) and not isinstance(spec, bool):
+        return Fixed(float(spec))
+    if not isinstance(spec, Mapping):
+        raise ConfigError(f"a size distribution must be a number or a table with 'kind', got {spec!r}.")
+    spec = dict(spec)
+    kind = spec.pop("kind", None)
+    classes = {"fixed": Fixed, "uniform": Uniform, "normal": Normal, "sieve": SieveTable}
+    if kind not in classes:
+        raise ConfigError(
+            f"unknown size distribution kind {kind!r}: use one of {', '.join(classes)}."
+        )
+    try:
+        return classes[kind](**spec)
+    except TypeError as exc:
+        raise ConfigError(f"bad keys for a {kind} size distribution: {exc}.") from None

@@ -1,0 +1,356 @@
+"""The campaign report: one self-contained HTML file plus CSV/JSON of every table.
+
+For each campaign (the layout of the reference paper, IJABE 2020):
+
+* lab samples and targets (Table 1), factors and levels (Tables 3, 7);
+* the design with its simulated results (Tables 4, 8) and the run statistics;
+* fit summary, ANOVA (Tables 5, 9), fit statistics, coefficients, the model
+  equation in coded and actual units (Eqs. 4, 6);
+* predicted vs actual (Fig. 6), perturbation, response surfaces (Figs. 5, 9);
+* calibrated parameters per condition (Tables 6, 10) with the ranges of the
+  solution set, next to the paper's values;
+* verification: simulated against measured, relative error, inside the lab spread
+  or not -- and plainly why not;
+* heap images simulated next to measured (Fig. 7), when the runs and photos exist;
+
+then a section that re-analyses the paper's own tables. Figures are embedded as
+base64 PNG (:class:`demcal.report.html.HtmlReport`).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from demcal.campaign.calibrate import Calibration, calibrate
+from demcal.campaign.config import Campaign
+from demcal.report.html import HtmlReport, format_number
+
+#: How many response-surface figures per campaign (the strongest two-factor interactions).
+SURFACES = 3
+
+
+def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | None = None,
+                 calibrations: Sequence[Calibration] | None = None, title: str | None = None,
+                 figure_files: bool = True) -> Path:
+    """Write the HTML report of one or more campaigns; returns the HTML file's path.
+
+    Parameters
+    ----------
+    campaigns : a campaign, or several (the demo reports both of the paper's).
+    out : report folder; default ``<workdir>/report`` of the first campaign.
+    calibrations : results of :func:`demcal.campaign.calibrate.calibrate`; recomputed
+        from the store (nothing simulated) when omitted.
+    figure_files : also write each figure as ``figures/<name>.png`` and ``.svg``
+        (they are always embedded in the HTML).
+    """
+    if isinstance(campaigns, Campaign):
+        campaigns = [campaigns]
+    campaigns = list(campaigns)
+    if calibrations is None:
+        calibrations = [calibrate(c, simulate=False, progress=False) for c in campaigns]
+    out = Path(out) if out is not None else campaigns[0].workdir / "report"
+    report = HtmlReport(title or (campaigns[0].title if len(campaigns) == 1 else
+                                  "DEM contact parameter calibration"), out,
+                        figure_formats=("png", "svg") if figure_files else ())
+    if len(campaigns) > 1:
+        report.bullets([f"{c.title} ({c.path.name}, {c.test}, profile {c.profile})" for c in campaigns])
+    for calibration in calibrations:
+        _campaign_sections(report, calibration, prefix=calibration.campaign.name if len(campaigns) > 1 else "")
+    _paper_sections(report, campaigns)
+    return report.write()
+
+
+# --------------------------------------------------------------------------- sections
+
+
+def _name(prefix: str, name: str) -> str:
+    return f"{prefix}_{name}" if prefix else name
+
+
+def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> None:
+    c = cal.campaign
+    n = lambda name: _name(prefix, name)  # noqa: E731
+    if prefix:
+        report.section(c.title, level=2)
+    if c.description:
+        report.paragraph(c.description)
+    table = cal.table
+    done = table[table["status"] == "done"]
+    report.paragraph(
+        f"Virtual test {c.test}, profile {c.profile}; {len(done)} of {len(table)} design runs done"
+        + (f", {int((table['status'] == 'failed').sum())} failed" if (table["status"] == "failed").any() else "")
+        + f"; campaign file {c.path.name}; store {c.store_path}.")
+
+    _lab_section(report, cal, n)
+
+    report.section("Factors and levels", 3)
+    levels = pd.DataFrame(
+        [{"factor": f.name, "parameter": f.parameter, "label": f.label, "unit": f.unit,
+          "-1": f.low, "0": f.center, "+1": f.high} for f in c.factors]).set_index("factor")
+    report.table(levels, n("factors"), caption="Factors and levels (paper Tables 3 and 7)")
+
+    report.section("Design and results", 3)
+    _design_section(report, cal, n)
+
+    for response in cal.models:
+        _model_sections(report, cal, response, n)
+
+    _calibration_sections(report, cal, n)
+    _verification_sections(report, cal, n)
+    _images_section(report, cal, n)
+    for note in cal.notes:
+        report.note(note)
+
+
+def _lab_section(report: HtmlReport, cal: Calibration, n) -> None:
+    c = cal.campaign
+    report.section("Lab data and targets", 3)
+    rows = []
+    sieve_rows = []
+    for cond in c.conditions:
+        record = cond.sample
+        for t in cond.targets:
+            rows.append({"condition": cond.name, "sample": record.name if record else "",
+                         "moisture %": getattr(record, "moisture_percent", None),
+                         "bulk density kg/m³": getattr(record, "bulk_density", None),
+                         "response": t.response, "target": t.mean, "lab sd": t.sd})
+        if record is not None and record.sieve is not None:
+            s = record.sieve
+            for lo, hi, m in zip(s.lower_mm, s.upper_mm, s.mass_percent):
+                sieve_rows.append({"sample": record.name, "class mm": f"[{lo:g}, {hi:g})", "mass %": m})
+    report.table(pd.DataFrame(rows).set_index("condition"), n("targets"),
+                 caption="Lab samples and measured targets (paper Table 1, Sections 2.1 and 3.1)")
+    if sieve_rows:
+        sieve = pd.DataFrame(sieve_rows).pivot(index="class mm", columns="sample", values="mass %")
+        sieve = sieve.reindex([r["class mm"] for r in sieve_rows if r["sample"] == sieve_rows[0]["sample"]])
+        report.table(sieve, n("sieve"), caption="Particle-size distribution, mass % (paper Table 1)")
+
+
+def _design_section(report: HtmlReport, cal: Calibration, n) -> None:
+    c = cal.campaign
+    table = cal.table
+    cols = ["run"] + c.factor_names + [f.parameter for f in c.factors] + c.response_names + ["seed", "status", "wall_s"]
+    if c.replicates > 1:
+        cols.insert(1, "replicate")
+    shown = table[cols].set_index("run").rename(
+        columns={f.parameter: f"{f.name} actual" for f in c.factors})
+    report.table(shown, n("design_results"),
+                 caption="Design (coded and actual levels) with simulated responses (paper Tables 4 and 8)")
+    walls = table["wall_s"].dropna()
+    if len(walls):
+        report.paragraph(f"Wall time per design run: mean {walls.mean():.1f} s, max {walls.max():.1f} s, "
+                         f"total {walls.sum() / 60:.1f} CPU-min.", "small")
+
+
+def _model_sections(report: HtmlReport, cal: Calibration, response: str, n) -> None:
+    """ANOVA (Tables 5, 9), fit statistics, equations, fit summary, reduced model and
+    figures (Figs. 5, 6, 9), built by the statistics helper's report blocks."""
+    from demcal.report.paper import add_model_sections
+
+    c = cal.campaign
+    full = cal.full[response]
+    report.section(f"Response model of {response}", 3)
+    used = ("the reduced model" if cal.removed.get(response) else "the full model") + (
+        f" (backward elimination at alpha = {c.reduce_alpha:g})" if c.reduce_alpha is not None else "")
+    report.paragraph(f"{c.model_order.capitalize()} model in coded factors "
+                     + ", ".join(f"{f.name} = {f.parameter}" for f in c.factors)
+                     + f"; the calibration below solves {used}.")
+    add_model_sections(report, full, n(response), surfaces=_surface_pairs(full, len(c.factors)),
+                       reduce_alpha=c.reduce_alpha, level=4)
+
+
+def _surface_pairs(model, k: int) -> list[tuple[int, int]]:
+    """The factor pairs with the largest interaction F values (all pairs when few)."""
+    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
+    if len(pairs) <= SURFACES:
+        return pairs
+    names = model.names
+
+    def strength(pair):
+        term = f"{names[pair[0]]}*{names[pair[1]]}"
+        if term in model.anova.index and np.isfinite(model.anova.loc[term, "F"]):
+            return float(model.anova.loc[term, "F"])
+        return -1.0
+
+    return sorted(pairs, key=strength, reverse=True)[:SURFACES]
+
+
+def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
+    from demcal.report.paper import add_optimization_sections
+
+    c = cal.campaign
+    report.section("Calibrated parameters", 3)
+    report.paragraph(
+        "For each condition the model is solved for the lab target by a desirability search; every "
+        "setting with desirability >= 0.99 belongs to the solution set, and the range of each factor "
+        "over it is given: one angle does not pin down all parameters. The setting simulated for "
+        "verification is the one of the set nearest the design centre.")
+    rows = []
+    for result in cal.conditions:
+        for f in c.factors:
+            lo, hi = result.factor_ranges.get(f.parameter, (np.nan, np.nan))
+            rows.append({"condition": result.condition.name, "factor": f.name, "parameter": f.parameter,
+                         "calibrated": result.chosen[f.parameter], "set low": lo, "set high": hi,
+                         "paper": result.condition.reference.get(f.parameter, np.nan)})
+    report.table(pd.DataFrame(rows).set_index("condition"), n("calibrated_parameters"),
+                 caption="Calibrated parameters per condition with the solution-set ranges, "
+                         "and the paper's values (Tables 6 and 10)")
+    pred = []
+    for result in cal.conditions:
+        for v in result.verdicts:
+            pred.append({"condition": result.condition.name, "response": v.response, "target": v.target,
+                         "predicted at calibrated": v.predicted,
+                         "predicted at paper's values": result.reference_predicted.get(v.response, np.nan),
+                         "model reaches low": v.reachable[0], "model reaches high": v.reachable[1],
+                         "desirability": result.desirability})
+    report.table(pd.DataFrame(pred).set_index("condition"), n("model_predictions"),
+                 caption="Model predictions at the calibrated and at the paper's parameters, and the "
+                         "range the model reaches inside the design box")
+    for result in cal.conditions:
+        for note in result.notes:
+            if "outside what the model reaches" in note:
+                report.note(f"{result.condition.name}: {note}.")
+        add_optimization_sections(report, result.optimization, n(f"solve_{result.condition.name}"),
+                                  f"Solving for {result.condition.name} (solution 1, the star, is simulated)",
+                                  level=4)
+
+
+def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
+    report.section("Verification by simulation", 3)
+    rows = []
+    for result in cal.conditions:
+        for v in result.verdicts:
+            inside = {True: "yes", False: "NO", None: ""}[v.within_lab_sd]
+            rows.append({
+                "condition": result.condition.name, "response": v.response,
+                "lab mean": v.target, "lab sd": v.lab_sd, "model": v.predicted,
+                "replicates": len(v.simulated),
+                "simulated": ", ".join(f"{x:.2f}" for x in v.simulated),
+                "simulated mean": v.simulated_mean if v.simulated else np.nan,
+                "simulated sd": v.simulated_sd if v.simulated else np.nan,
+                "error %": v.relative_error_percent if v.simulated else np.nan,
+                "inside lab sd": inside,
+            })
+    report.table(pd.DataFrame(rows).set_index("condition"), n("verification"),
+                 caption="Simulated against measured at the calibrated parameters "
+                         "(relative error = |simulated mean - lab mean| / lab mean)")
+    for result in cal.conditions:
+        for v in result.verdicts:
+            if v.simulated and v.within_lab_sd:
+                report.paragraph(f"{result.condition.name}: simulated {v.response} {v.simulated_mean:.2f} lies "
+                                 f"within the lab's {v.target:g} ± {v.lab_sd:g} (error "
+                                 f"{v.relative_error_percent:.2f} %).")
+        for note in result.notes:
+            if "outside what the model reaches" not in note:
+                report.note(f"{result.condition.name}: {note}")
+
+
+def _img(path: Path, alt: str) -> str:
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    mime = "image/jpeg" if path.suffix.lower() in (".jpg", ".jpeg") else "image/png"
+    return f'<img alt="{html.escape(alt)}" style="max-width:100%" src="data:{mime};base64,{data}">'
+
+
+def _measured_photo(condition, base: Path) -> Path | None:
+    if condition.photo is not None:
+        return condition.photo
+    record = condition.sample
+    photos = getattr(record, "repose_photos", None) if record is not None else None
+    if photos is not None:
+        try:
+            paths = photos.paths(base)
+        except Exception:  # a missing photo is reported by the lab check, not here
+            return None
+        return Path(paths[0]) if paths else None
+    return None
+
+
+def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
+    """Simulated heap (verification run artifact) next to the measured photo (Fig. 7)."""
+    c = cal.campaign
+    cells = []
+    for result in cal.conditions:
+        simulated = None
+        for record in result.verification:
+            if record.status != "done" or not record.artifacts_dir:
+                continue
+            folder = c.workdir / "runs" / record.artifacts_dir
+            for name, rel in record.result.get("artifacts", {}).items():
+                path = folder / rel
+                if path.suffix.lower() in (".png", ".jpg", ".jpeg") and path.is_file():
+                    simulated = (name, path)
+                    break
+            if simulated:
+                break
+        measured = _measured_photo(result.condition, c.path.parent)
+        if simulated is None and measured is None:
+            continue
+        sim_html = _img(simulated[1], f"simulated {result.condition.name}") if simulated else "<p>no image</p>"
+        mea_html = (_img(measured, f"measured {result.condition.name}") if measured and measured.is_file()
+                    else "<p class=\"small\">no lab photo in the campaign</p>")
+        cells.append(
+            f"<tr><td class=\"t\">{html.escape(result.condition.name)}</td>"
+            f"<td class=\"t\" style=\"width:45%\">{sim_html}</td><td class=\"t\" style=\"width:45%\">{mea_html}</td></tr>")
+    if cells:
+        report.section("Heap images: simulated and measured", 3)
+        report.raw("<table><caption>Simulated (verification run) and measured heap, paper Fig. 7</caption>"
+                   "<thead><tr><th class=\"t\">condition</th><th class=\"t\">simulated</th>"
+                   "<th class=\"t\">measured</th></tr></thead><tbody>" + "".join(cells) + "</tbody></table>")
+
+
+# --------------------------------------------------------------------------- paper
+
+
+def _paper_sections(report: HtmlReport, campaigns: Sequence[Campaign]) -> None:
+    """Re-analyse the paper's own design tables and check its verification errors."""
+    from demcal.report.paper import STUDIES, add_model_sections, analyse_study
+
+    studies = {study.key: study for study in STUDIES}
+    chosen = [c for c in campaigns if c.reference_table is not None and c.name in studies]
+    if not chosen:
+        return
+    report.section("The reference paper re-analysed", 2)
+    report.paragraph(
+        "The paper's own simulated responses (its Tables 4 and 8) analysed with the same statistics, "
+        "its calibrated parameters (Tables 6 and 10) evaluated on that model, and its verification "
+        "errors recomputed from the numbers it prints.")
+    for campaign in chosen:
+        study = studies[campaign.name]
+        analysis = analyse_study(study, n_starts=10)
+        report.section(study.title, 3)
+        add_model_sections(report, analysis.model, f"paper_{study.key}", f"{study.anova_table} re-analysed: ",
+                           study.printed_anova, study.printed_equation, study.printed_fit, surfaces=(),
+                           reduce_alpha=None, level=4)
+        report.table(analysis.points, f"paper_{study.key}_points",
+                     caption=f"The paper's calibrated parameters ({study.points_table}) on its own model")
+        _paper_verification(report, campaign)
+
+
+def _paper_verification(report: HtmlReport, campaign: Campaign) -> None:
+    path = campaign.path.parent / "paper_verification.csv"
+    if not path.is_file():
+        return
+    data = pd.read_csv(path)
+    data = data[data["campaign"] == campaign.name]
+    if data.empty:
+        return
+    data = data.assign(
+        recomputed_error_percent=100.0 * (data["simulated"] - data["measured"]).abs() / data["measured"],
+        inside_lab_sd=(data["simulated"] - data["measured"]).abs() <= data["measured_sd"],
+    )
+    shown = data.drop(columns=["campaign"]).set_index("condition")
+    report.table(shown, f"paper_verification_{campaign.name}",
+                 caption="The paper's verification (Sections 2.3 and 3.2): its printed errors and the errors "
+                         "its own numbers give")
+    for _, row in data.iterrows():
+        if abs(row["recomputed_error_percent"] - row["reported_error_percent"]) > 0.05:
+            report.note(
+                f"{campaign.name}, {row['condition']}: the paper reports an error of "
+                f"{format_number(row['reported_error_percent'])} %, but {row['simulated']:g} against "
+                f"{row['measured']:g} is {row['recomputed_error_percent']:.2f} %.")

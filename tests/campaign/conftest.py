@@ -1,0 +1,106 @@
+"""Fixtures for the campaign tests: a test-double experiment and campaign files.
+
+The runner is exercised with ``test-heap`` (``campaign_testbench.py``), a
+deterministic function of settings and seed that takes a fraction of a second;
+the real virtual experiments are covered by the slow tests.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+HERE = Path(__file__).resolve().parent
+if str(HERE) not in sys.path:
+    sys.path.insert(0, str(HERE))
+
+#: A complete campaign on the test double: 4 factors, Box-Behnken with 5 centre points.
+CAMPAIGN = """\
+[campaign]
+name = "test campaign"
+
+[experiment]
+test = "test-heap"
+profile = "tiny"
+plugins = ["campaign_testbench"]
+
+[experiment.settings]
+"test.sleep_s" = {sleep}
+
+[[factors]]
+name = "A"
+parameter = "particle.restitution"
+low = 0.5
+high = 0.7
+
+[[factors]]
+name = "B"
+parameter = "particle.static_friction"
+low = 0.3
+high = 0.5
+
+[[factors]]
+name = "C"
+parameter = "particle.rolling_friction"
+low = 0.1
+high = 0.3
+
+[[factors]]
+name = "D"
+parameter = "particle.damping_factor"
+low = 0.0
+high = 0.2
+
+[design]
+type = "box-behnken"
+center = 5
+
+[runs]
+seed = 7
+
+[model]
+order = "quadratic"
+
+[[conditions]]
+name = "6.26 %"
+targets = {{ repose_angle_deg = {{ mean = 36.0, sd = 2.1 }} }}
+
+[[conditions]]
+name = "14.1 %"
+targets = {{ repose_angle_deg = {{ mean = 42.0, sd = 2.2 }} }}
+
+[verification]
+replicates = 2
+
+[executor]
+workers = 2
+"""
+
+
+@pytest.fixture(autouse=True)
+def _plugin_on_path(monkeypatch):
+    """Subprocesses (pool workers, `demcal run`) must import the test double too."""
+    parts = [str(HERE)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(parts))
+
+
+@pytest.fixture
+def campaign_file(tmp_path):
+    """Write the test campaign (optionally edited) and return its path.
+
+    ``campaign_file(sleep=0.05, replace={"old": "new"})``
+    """
+
+    def write(sleep: float = 0.02, replace: dict[str, str] | None = None, name: str = "campaign.toml") -> Path:
+        text = CAMPAIGN.format(sleep=sleep)
+        for old, new in (replace or {}).items():
+            assert old in text, old
+            text = text.replace(old, new, 1)
+        path = tmp_path / name
+        path.write_text(text)
+        return path
+
+    return write

@@ -1,0 +1,147 @@
+"""Campaign files: every bad-file case of issue 5, acceptance 5, gets one sentence
+naming the file, the line and the key; nothing is run and nothing is overwritten."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+from pathlib import Path
+
+import pytest
+
+from demcal.campaign.config import load_campaign, parse_campaign
+from demcal.errors import ConfigError
+
+
+def line_of(path, text: str) -> int:
+    """Line of the first line of ``text`` (which must occur once) in the file."""
+    content = path.read_text()
+    assert content.count(text) == 1, text
+    return content[: content.index(text)].count("\n") + 1
+
+
+def test_good_file_loads(campaign_file):
+    campaign = load_campaign(campaign_file())
+    assert campaign.test == "test-heap" and campaign.profile == "tiny"
+    assert [f.name for f in campaign.factors] == ["A", "B", "C", "D"]
+    assert campaign.factors[1].parameter == "particle.static_friction"
+    assert campaign.factors[1].to_actual(1.0) == pytest.approx(0.5)
+    assert campaign.factors[3].to_coded(0.1) == pytest.approx(0.0)
+    assert campaign.design.type == "box-behnken" and campaign.design.center == 5
+    assert [c.name for c in campaign.conditions] == ["6.26 %", "14.1 %"]
+    assert campaign.conditions[0].target("repose_angle_deg").mean == 36.0
+    assert campaign.conditions[1].target("repose_angle_deg").sd == 2.2
+    assert campaign.verification_replicates == 2
+    assert campaign.workdir == campaign.path.parent / "campaign-runs"
+    with pytest.raises(Exception):
+        campaign.name = "x"  # frozen
+
+
+# (edit to the good file, text on the offending line, words the sentence must contain)
+BAD_FILES = {
+    "unknown key": ({"low = 0.3\nhigh = 0.5": "lwo = 0.3\nhigh = 0.5"}, "lwo = 0.3",
+                    ["unknown key 'lwo'", "did you mean 'low'"]),
+    "unknown table key": ({'profile = "tiny"': 'profle = "tiny"'}, "profle",
+                          ["unknown key 'profle'", "did you mean 'profile'"]),
+    "low >= high": ({"low = 0.3\nhigh = 0.5": "low = 0.5\nhigh = 0.3"}, "low = 0.5\nhigh = 0.3",
+                    ["factor 'particle.static_friction' has low 0.5 >= high 0.3; swap them."]),
+    "parameter path does not exist": (
+        {'parameter = "particle.static_friction"': 'parameter = "particle.static_fricton"'},
+        "static_fricton", ["'particle.static_fricton' is not a setting of test-heap",
+                           "did you mean 'particle.static_friction'"]),
+    "restitution above 1": ({"low = 0.5\nhigh = 0.7": "low = 0.5\nhigh = 1.2"}, "high = 1.2",
+                            ["'particle.restitution'", "(0, 1]"]),
+    "restitution zero": ({"low = 0.5\nhigh = 0.7": "low = 0.0\nhigh = 0.7"}, "low = 0.0\nhigh = 0.7",
+                         ["'particle.restitution'", "(0, 1]"]),
+    "missing target": ({"targets = { repose_angle_deg = { mean = 42.0, sd = 2.2 } }": 'label = "wet"'},
+                       '[[conditions]]\nname = "14.1 %"', ["condition '14.1 %' has no target for response 'repose_angle_deg'"]),
+    "unknown design type": ({'type = "box-behnken"': 'type = "box-benken"'}, "box-benken",
+                            ["unknown design type 'box-benken'", "did you mean 'box-behnken'"]),
+    "unknown test": ({'test = "test-heap"': 'test = "test-heep"'}, "test-heep",
+                     ["unknown virtual test 'test-heep'"]),
+    "not TOML": ({'name = "A"': 'name = "A'}, 'name = "A', ["not valid TOML"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILES))
+def test_bad_file_names_key_and_line(campaign_file, case):
+    edit, offending, words = BAD_FILES[case]
+    path = campaign_file(replace=edit)
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    message = str(info.value)
+    line = line_of(path, offending)
+    assert message.startswith(f"campaign.toml line {line}: "), message
+    for word in words:
+        assert word in message, message
+    assert "\n" not in message and message.endswith((".", "?")), message
+
+
+def test_missing_conditions_table():
+    text = "[campaign]\nname = 'x'\n[experiment]\ntest = 'test-heap'\n"
+    with pytest.raises(ConfigError, match=r"missing \[\[factors\]\]"):
+        parse_campaign(text, "c.toml")
+
+
+def test_design_point_outside_a_setting_range(campaign_file):
+    # A circumscribed CCD puts axial points beyond the factor levels: restitution 0.9 + alpha.
+    path = campaign_file(replace={
+        "low = 0.5\nhigh = 0.7": "low = 0.8\nhigh = 0.95",
+        'type = "box-behnken"\ncenter = 5': 'type = "central-composite"\ncenter = 3',
+    })
+    from demcal.campaign.runner import plan_design
+
+    campaign = load_campaign(path)
+    with pytest.raises(ConfigError, match=r"design point \d+ is not a valid run: setting 'particle.restitution'"):
+        plan_design(campaign)
+
+
+def _digest(folder):
+    return {p.relative_to(folder): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_bad_file_runs_nothing_and_overwrites_nothing(campaign_file, capsys):
+    from demcal.cli import main
+
+    good = campaign_file()
+    assert main(["run", str(good), "--quiet"]) == 0
+    workdir = good.parent / "campaign-runs"
+    before = _digest(workdir)
+    capsys.readouterr()
+    for case, (edit, _, _) in sorted(BAD_FILES.items()):
+        bad = campaign_file(replace=edit)
+        assert main(["run", str(bad)]) == 2, case
+        err = capsys.readouterr().err
+        assert err.startswith("demcal: error: campaign.toml line "), (case, err)
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, (case, err)
+        assert _digest(workdir) == before, case
+
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "residual-film-soil"
+
+
+def test_targets_from_the_lab_file(campaign_file):
+    shutil.copy(EXAMPLE / "lab.toml", campaign_file().parent / "lab.toml")
+    path = campaign_file(replace={
+        'name = "test campaign"': 'name = "test campaign"\nlab = "lab.toml"',
+        'targets = { repose_angle_deg = { mean = 36.0, sd = 2.1 } }': 'sample = "L"',
+        'targets = { repose_angle_deg = { mean = 42.0, sd = 2.2 } }': 'sample = "I"',
+    })
+    campaign = load_campaign(path)
+    low, high = campaign.conditions
+    assert (low.target("repose_angle_deg").mean, low.target("repose_angle_deg").sd) == (31.07, 2.1)
+    assert (high.target("repose_angle_deg").mean, high.target("repose_angle_deg").sd) == (39.88, 2.2)
+    assert low.sample.moisture_percent == 6.26 and high.sample.bulk_density == 1087.85
+
+
+def test_unknown_sample_is_named(campaign_file):
+    shutil.copy(EXAMPLE / "lab.toml", campaign_file().parent / "lab.toml")
+    path = campaign_file(replace={
+        'name = "test campaign"': 'name = "test campaign"\nlab = "lab.toml"',
+        'targets = { repose_angle_deg = { mean = 36.0, sd = 2.1 } }': 'sample = "X"',
+    })
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    line = line_of(path, 'sample = "X"')
+    assert str(info.value) == f"campaign.toml line {line}: sample 'X' is not in the lab file; samples: L, I."

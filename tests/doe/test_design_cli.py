@@ -1,0 +1,51 @@
+"""``demcal design`` and design CSV files."""
+
+import numpy as np
+import pandas as pd
+
+from demcal.cli import main
+from demcal.doe import read_design_csv
+
+
+def test_design_box_behnken_cli_writes_actual_levels(tmp_path, capsys):
+    out = tmp_path / "design.csv"
+    rc = main(["design", "box-behnken", "--factor", "e=0.5:0.7", "--factor", "mu=0.3:0.5",
+               "--factor", "gamma=0.1:0.3", "--factor", "zeta=0:0.2", "--center", "5",
+               "--seed", "3", "-o", str(out)])
+    assert rc == 0
+    df = pd.read_csv(out, comment="#")
+    assert len(df) == 29 and list(df.columns) == ["run", "std_order", "e", "mu", "gamma", "zeta"]
+    assert set(np.round(df["e"], 9)) == {0.5, 0.6, 0.7}
+    back = read_design_csv(out)
+    assert back.names == ["e", "mu", "gamma", "zeta"]
+    assert np.allclose(back.coded[:24], __import__("demcal.doe", fromlist=["x"]).box_behnken(4, 0))
+
+
+def test_design_cli_other_kinds(capsys):
+    assert main(["design", "ccd", "-k", "3", "--ccd-type", "face-centred", "--center", "2"]) == 0
+    assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 8 + 6 + 2
+    assert main(["design", "plackett-burman", "-k", "7"]) == 0
+    assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 8
+    assert main(["design", "fractional", "-k", "5", "--fraction", "2"]) == 0
+    assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 8
+
+
+def test_design_steepest_ascent_from_runs(tmp_path, capsys):
+    # Montgomery Example 11.1 data (time 30..40 min, temperature 150..160 F)
+    runs = tmp_path / "runs.csv"
+    runs.write_text("time,temp,y\n30,150,39.3\n30,160,40.0\n40,150,40.9\n40,160,41.5\n"
+                    "35,155,40.3\n35,155,40.5\n35,155,40.7\n35,155,40.2\n35,155,40.6\n")
+    assert main(["design", "steepest-ascent", str(runs), "--response", "y", "--steps", "2"]) == 0
+    rows = capsys.readouterr().out.strip().splitlines()
+    assert rows[0] == "run,std_order,time,temp"
+    t, T = map(float, rows[2].split(",")[2:])
+    assert (t, round(T, 2)) == (40.0, 157.1)
+
+
+def test_design_cli_bad_input_one_sentence(capsys):
+    assert main(["design", "box-behnken", "--factor", "e=0.7:0.5", "--factor", "m=1:2",
+                 "--factor", "g=1:2"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("demcal: error: ") and err.count("\n") == 1 and "Traceback" not in err
+    assert main(["design", "box-behnken", "--factor", "e=0.5:0.7", "--factor", "m=1:2"]) == 2
+    assert "3 to 7 factors" in capsys.readouterr().err
