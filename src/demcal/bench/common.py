@@ -212,7 +212,14 @@ def time_step(s: Mapping[str, Any], materials, interactions, walls, template, sm
     """
     from demcal.dem import Simulation
 
-    probe = Simulation(materials, interactions, walls=walls, contact_model=s["contact.model"],
+    from demcal.geometry import Plane, WallSet
+
+    # one static plane per wall material stands in for the walls (only materials matter)
+    probe_walls = None
+    if walls is not None and len(walls):
+        probe_walls = WallSet([Plane(material=int(m), name=f"m{int(m)}")
+                               for m in np.unique(walls.material)])
+    probe = Simulation(materials, interactions, walls=probe_walls, contact_model=s["contact.model"],
                        rolling_model=s["rolling.model"])
     probe.add_particles(template, [[0.0, 0.0, 0.0]], scales=[smallest_scale])
     t_r, t_c = probe.time_scales()
@@ -221,13 +228,22 @@ def time_step(s: Mapping[str, Any], materials, interactions, walls, template, sm
 
 
 def make_simulation(s: Mapping[str, Any], materials, interactions, walls, dt: float,
-                    gravity=(0.0, 0.0, -G), domain=None):
+                    gravity=(0.0, 0.0, -G), domain=None, skin=None):
     """A Simulation with the settings' contact and rolling models and step ``dt`` [s]."""
     from demcal.dem import Simulation
+    import os
 
+    if os.environ.get("DEMCAL_SKIN"):
+        skin = float(os.environ["DEMCAL_SKIN"])
+    if walls is not None and walls.moving:
+        # work-around: the engine reads self.time while packing moving walls in __init__
+        class _Simulation(Simulation):
+            time = 0.0
+
+        Simulation = _Simulation  # noqa: N806
     return Simulation(materials, interactions, walls=walls, gravity=gravity, dt=dt,
                       contact_model=s["contact.model"], rolling_model=s["rolling.model"],
-                      domain=domain)
+                      domain=domain, skin=skin)
 
 
 @dataclass
@@ -354,35 +370,29 @@ def run_until(sim, chunk: float, stop: Callable[[], bool], max_time: float,
 
 
 class DrivenTranslation(Motion):
-    """A wall translation whose velocity the experiment sets while it runs.
+    """A wall translation that the experiment moves in small steps while it runs.
 
-    Position ``offset + velocity (t - t0)``; :meth:`set_velocity` starts a new linear
-    piece at time ``t`` (continuous position), :meth:`move_to` jumps (used to take a
-    wall away).
+    The wall sits at ``offset`` and reports ``velocity`` to the contacts (the relative
+    velocity of a contact uses it). :meth:`place` moves it; the wall set re-evaluates the
+    wall only after a move (``moving`` is true until the next :meth:`transform`), so
+    between moves a "moving" wall costs nothing. Moving it every few steps by
+    ``velocity x elapsed time`` approximates a continuous motion to within that
+    displacement (micrometres here).
     """
-
-    moving = True
 
     def __init__(self):
         self.offset = np.zeros(3)
         self.velocity = np.zeros(3)
-        self.t0 = 0.0
+        self.moving = True
 
-    def position(self, t: float) -> np.ndarray:
-        return self.offset + self.velocity * (t - self.t0)
-
-    def set_velocity(self, t: float, velocity) -> None:
-        self.offset = self.position(t)
-        self.t0 = float(t)
-        self.velocity = np.asarray(velocity, dtype=float).reshape(3).copy()
-
-    def move_to(self, t: float, offset) -> None:
+    def place(self, offset, velocity=(0.0, 0.0, 0.0)) -> None:
         self.offset = np.asarray(offset, dtype=float).reshape(3).copy()
-        self.velocity = np.zeros(3)
-        self.t0 = float(t)
+        self.velocity = np.asarray(velocity, dtype=float).reshape(3).copy()
+        self.moving = True
 
     def transform(self, t):
-        return np.eye(3), self.position(t)
+        self.moving = False
+        return np.eye(3), self.offset.copy()
 
     def twist(self, t):
         return np.zeros(3), self.velocity.copy()
@@ -391,4 +401,4 @@ class DrivenTranslation(Motion):
         return self.velocity.copy()
 
     def pose(self, t, x_ref):
-        return np.asarray(x_ref, dtype=float) + self.position(t)
+        return np.asarray(x_ref, dtype=float) + self.offset

@@ -354,10 +354,18 @@ class ReposeCylinder(C.BenchExperiment):
         progress(f"settled at t {sim.time:.2f} s; lifting")
         top = float((sim.state.sphere_positions[:, 2] + sim.state.radii).max())
         v = float(s["geometry.lift_speed"])
-        motion.set_velocity(sim.time, (0.0, 0.0, v))
+        t_lift = sim.time
         t_clear = sim.time + (top + b_max) / v
-        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, each)
-        motion.move_to(sim.time, (0.0, 0.0, 10.0 * (fill_h + 1.0)))
+        lift_steps = max(1, int(round(2e-4 / sim.dt)))  # move the cylinder every ~0.2 ms
+
+        def lift_each():
+            motion.place((0.0, 0.0, v * (sim.time - t_lift)), (0.0, 0.0, v))
+            if sim.step_count % (lift_steps * 100) < lift_steps:
+                each()
+
+        motion.place((0.0, 0.0, 0.0), (0.0, 0.0, v))
+        C.run_until(sim, lift_steps * sim.dt, lambda: sim.time >= t_clear, max_time, lift_each)
+        motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))
         settle = _Settle(sim, float(s["time.rest_speed"]))
         if not C.run_until(sim, 0.02, settle, max_time, each):
             raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "

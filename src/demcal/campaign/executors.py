@@ -20,6 +20,7 @@ import importlib
 import multiprocessing
 import os
 import signal
+import socket
 import sys
 import time
 import traceback
@@ -87,7 +88,7 @@ def execute(task: Mapping[str, Any]) -> dict[str, Any]:
     runs_dir = Path(task["runs_dir"])
     name = task["name"]
     tmp = temp_dir(runs_dir, name)
-    outcome: dict[str, Any] = {"artifacts_dir": name, "host": _host(), "pid": os.getpid()}
+    outcome: dict[str, Any] = {"artifacts_dir": name, "host": socket.gethostname(), "pid": os.getpid()}
     try:
         import_plugins(task.get("plugins", ()))
         experiment = get_experiment(task["test"])
@@ -125,12 +126,6 @@ def _relative(path: str, folder: Path) -> str:
         return str(Path(path).resolve().relative_to(folder.resolve()))
     except ValueError:
         return str(path)
-
-
-def _host() -> str:
-    import socket
-
-    return socket.gethostname()
 
 
 def _limit_threads(threads: int | None) -> None:

@@ -41,7 +41,11 @@ Example
 >>> sim.run(duration=0.1)                                  # doctest: +SKIP
 """
 
-from .contact.registry import ContactModel
+from ._cache import guard as _guard
+
+_guard()
+
+from .contact.registry import ContactModel  # noqa: E402
 from .simulation import Simulation, State
 
 __all__ = ["Simulation", "State", "ContactModel"]

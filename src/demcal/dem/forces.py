@@ -25,7 +25,7 @@ from demcal.geometry.kernels import wall_distance
 from .contact.kernel import HIST_WIDTH, contact
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 binertia, bmat, row_start, nbr, hist, pair_out, lo, hi):
     ns = spos.shape[0]
@@ -95,7 +95,7 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             pair_out[p, 8] = -(ajx * fy - ajy * fx) + tjz
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 binertia, bmat, wall_start, wid, whist, wall_out,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):
@@ -154,7 +154,7 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             wall_out[q, 8] = -(ajx * fy - ajy * fx) - tiz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def wall_totals(wall_start, wid, wall_out, nw, out):
     """Force and torque per wall row, ``out[w] = (F, T about origin)``, fixed order."""
     for w in range(nw):

@@ -16,7 +16,9 @@ the symplectic splitting of the free rigid body of Dullweber, Leimkuhler & McLac
 (1997, J. Chem. Phys. 107, 5840): with ``L_b`` in the principal frame, rotations
 about body axes 1, 2, 3, 2, 1 over dt/2, dt/2, dt, dt/2, dt/2; each is exact, keeps
 ``|L|`` and the world ``L`` unchanged and the scheme keeps the energy error bounded.
-Quaternions are (w, x, y, z) and map body to world.
+Quaternions are (w, x, y, z) and map body to world. The orientation of a
+single-sphere particle does not affect its motion and is not integrated (it stays as
+inserted); its angular velocity is always ``L / I``.
 """
 
 import math
@@ -24,7 +26,7 @@ import math
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def quat_rotate(q0, q1, q2, q3, x, y, z):
     """R(q) (x, y, z): body-frame vector to world frame."""
     # t = 2 q_v x v ; v' = v + q0 t + q_v x t
@@ -36,13 +38,13 @@ def quat_rotate(q0, q1, q2, q3, x, y, z):
             z + q0 * tz + (q1 * ty - q2 * tx))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def quat_rotate_inv(q0, q1, q2, q3, x, y, z):
     """R(q)^T (x, y, z): world-frame vector to body frame."""
     return quat_rotate(q0, -q1, -q2, -q3, x, y, z)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
     return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
             a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
@@ -50,7 +52,7 @@ def quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
             a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _axis_rotation(k, phi, q0, q1, q2, q3, l0, l1, l2):
     """Free rotation about principal axis k by angle phi: q <- q (x) exp(phi e_k / 2),
     L_b <- R_k(-phi) L_b."""
@@ -70,7 +72,7 @@ def _axis_rotation(k, phi, q0, q1, q2, q3, l0, l1, l2):
     return q0, q1, q2, q3, l0, l1, l2
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def angular_velocity(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     """World angular velocity w = R diag(1/I) R^T L."""
     if i0 == i1 and i1 == i2:
@@ -79,7 +81,7 @@ def angular_velocity(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     return quat_rotate(q0, q1, q2, q3, b0 / i0, b1 / i1, b2 / i2)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     """Orientation after a torque-free rotation over dt (see module docstring)."""
     if i0 == i1 and i1 == i2:
@@ -104,7 +106,7 @@ def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     return q0 * n, q1 * n, q2 * n, q3 * n
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
           bfixed, bstart, soffset, spos, sref, dsq, lo, hi):
     """Half kick, drift and rotation of every body; refresh sphere positions."""
@@ -120,6 +122,21 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
             bvel[b, k] += h * bforce[b, k] * im
             bangmom[b, k] += h * btorque[b, k]
             bpos[b, k] += dt * bvel[b, k]
+        s0 = bstart[b]
+        if bstart[b + 1] - s0 == 1:
+            # single sphere: isotropic, orientation irrelevant to the physics (not
+            # integrated, stays as inserted); w = L / I
+            ii = 1.0 / binertia[b, 0]
+            bomega[b, 0] = bangmom[b, 0] * ii
+            bomega[b, 1] = bangmom[b, 1] * ii
+            bomega[b, 2] = bangmom[b, 2] * ii
+            for k in range(3):
+                spos[s0, k] = bpos[b, k]
+            ex = spos[s0, 0] - sref[s0, 0]
+            ey = spos[s0, 1] - sref[s0, 1]
+            ez = spos[s0, 2] - sref[s0, 2]
+            dsq[s0] = ex * ex + ey * ey + ez * ez
+            continue
         i0 = binertia[b, 0]
         i1 = binertia[b, 1]
         i2 = binertia[b, 2]
@@ -149,7 +166,7 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
             dsq[s] = ex * ex + ey * ey + ez * ez
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
                 binertia, bfixed, bstart, row_start, pair_out, rev_start, rev_pair,
                 wall_start, wall_out, kick, lo, hi):

@@ -25,7 +25,7 @@ from numba import njit
 from demcal.geometry.kernels import wall_distance
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def build_cells(spos, srad, skin, max_cells):
     """Cell grid and a counting sort of the spheres into cells.
 
@@ -79,7 +79,7 @@ def build_cells(spos, srad, skin, max_cells):
     return lo, h, dims, cell_of, cell_start, cell_order
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
               row_start, nbr, fill, lo, hi):
     """Count (``fill=False``, counts into ``row_start[i+1]``) or write the half list."""
@@ -130,7 +130,7 @@ def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
             row_start[i + 1] = n
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def sort_rows(row_start, nbr, lo, hi):
     """Sort each row by neighbour index (insertion sort; rows are short)."""
     ns = row_start.shape[0] - 1
@@ -146,7 +146,7 @@ def sort_rows(row_start, nbr, lo, hi):
             nbr[q + 1] = v
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, old_of_new,
                   lo, hi):
     """Copy each surviving pair's history row from the old list to the new one.
@@ -176,7 +176,7 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
                     new_hist[p, k] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def reverse_index(row_start, nbr, rev_start, rev_pair):
     """Transpose of the half list: for each sphere j, the pair slots where it is j."""
     ns = row_start.shape[0] - 1
@@ -195,7 +195,7 @@ def reverse_index(row_start, nbr, rev_start, rev_pair):
             cursor[j] += 1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def wall_rows(spos, srad, skin, wkind, wparams, waabb, row_start, wid, fill, lo, hi):
     """Count or write, per sphere, the wall rows within ``r + skin``."""
     ns = spos.shape[0]
@@ -236,7 +236,7 @@ def grown(capacity: int, needed: int) -> int:
 
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def carry_wall_history(new_start, new_wid, new_hist, old_start, old_wid, old_hist,
                        old_of_new, lo, hi):
     """Carry wall-contact history by matching (sphere, wall row)."""

@@ -357,7 +357,7 @@ def add_optimization_sections(report: HtmlReport, result: Optimization, name: st
 
 
 def write_paper_report(out_dir, n_starts: int = 30, seed: int = 0,
-                       figure_formats=("png", "svg")) -> Path:
+                       figure_formats=("png", "svg"), dpi: int = 110) -> Path:
     """Re-analyse the paper's Tables 4 and 8 into ``out_dir/report.html``.
 
     Parameters
@@ -368,6 +368,8 @@ def write_paper_report(out_dir, n_starts: int = 30, seed: int = 0,
         Multi-start settings of the optimisation.
     figure_formats : tuple of str
         Files written per figure besides the embedded PNG.
+    dpi : int
+        PNG resolution.
 
     Returns
     -------
@@ -375,7 +377,7 @@ def write_paper_report(out_dir, n_starts: int = 30, seed: int = 0,
         The HTML file.
     """
     report = HtmlReport("Reference paper re-analysed: response surfaces and calibration targets",
-                        out_dir, figure_formats)
+                        out_dir, figure_formats, dpi)
     report.paragraph(
         "This report recomputes the response-surface analysis of 'Calibration of the simulation "
         f"parameters of the particulate materials in film mixed materials' (IJABE 2020, DOI {DOI}) "

@@ -20,13 +20,13 @@ HIST_WIDTH = 8
 H_DELTA0 = 3
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def reset_history(hist, h):
     for k in range(HIST_WIDTH):
         hist[h, k] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
             vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
             lever_i, lever_j, r_eff, m_eff, inv_ir, dt):

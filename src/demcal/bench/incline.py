@@ -1,0 +1,302 @@
+"""Inclined plane: the static sliding angle of the material on agricultural film.
+
+The paper's test (IJABE 2020, Section 3.1, Fig. 8): a plate covered by film tilts about
+a spindle at a slow constant rate; a bottomless container on it holds the material; the
+plate is stopped when container and material start to slide, the height ``H`` of the
+container's starting point is read and ``theta = arcsin(H / L)`` with ``L = 300 mm``
+(Eq. 5).
+
+The simulation
+--------------
+* **Film plate.** An infinite plane of film material (``film.*`` settings: its own bulk
+  values and its own particle-film interaction). It never moves: instead, *gravity is
+  tilted* about the spindle axis (``y``) at ``incline.tilt_rate`` [deg/s],
+  ``g(theta) = 9.81 (sin theta, 0, -cos theta)`` m/s2, so the slope runs down along
+  ``+x``. In the plate's frame this is exact up to the inertial forces of a frame turning
+  at a constant rate (centrifugal ``omega^2 r`` and Coriolis ``2 omega v``): at the default
+  2 deg/s and 0.3 m from the spindle they are below 1e-4 g, and no wall motion has to be
+  integrated. The tilt starts at ``incline.start_angle`` (lowered automatically to
+  ``atan(film.static_friction) - 5 deg`` when that is smaller).
+* **Bottomless container.** A steel-coloured but *frictionless* cylinder (particle-container
+  static and rolling friction 0) of diameter ``geometry.container_diameter`` x
+  ``geometry.scale``, hovering a tenth of the smallest sphere radius above the film so it
+  never touches it. The particles are generated in it and settle into a bed on the flat
+  plate. While tilting, with ``incline.container = "follow"`` (default) the container
+  moves along the slope with the material's mean velocity plus a yielding term
+  ``v_ref F_x / W`` (``F_x`` the along-slope force the particles put on it, ``W`` their
+  weight, ``v_ref`` = 1 m/s), updated every 5 ms: it follows the material and keeps it
+  together laterally, but gives way to any along-slope push instead of holding the
+  material up (a container fixed to the plate would hold it by its downhill wall). With
+  ``"remove"`` the container is taken away once the bed has settled.
+* **Onset of sliding.** Every 5 ms the mass-weighted mean velocity of the material along
+  the slope ``v`` is recorded. Sliding is detected when ``v`` exceeds
+  ``incline.slide_speed`` (default 0.02 m/s). A block starting to slide on a plane tilted
+  at a constant rate accelerates as ``a ~ g (theta - theta_c)`` so ``v ~ (t - t_c)^2``:
+  the onset ``t_c`` is found by fitting a straight line to ``sqrt(v)`` against ``t`` over
+  the samples between 10 % and 100 % of the detection speed and extrapolating it to zero;
+  ``sliding_angle_deg`` is the tilt at ``t_c`` (the tilt at detection is also reported,
+  as ``sliding_angle_detected_deg``).
+* **Lab link.** ``equivalent_height_mm = L sin(theta)`` with ``L = incline.arm_length``
+  (300 mm): the ruler reading the lab would have taken.
+
+``incline.material = "block"`` replaces the loose particles by one rigid block -- a flat
+3 x 3 clump of overlapping 5 mm spheres -- without a container: it must slide at
+``atan(film.static_friction)`` (a check of the contact model and of the onset detection).
+
+Profiles: ``tiny`` 120 particles, ``quick`` 300 (about two layers in a 200 mm container at
+scale 4), ``paper`` 1500 (a bed about eight layers deep).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from demcal.bench import common as C
+from demcal.bench.registry import Setting, register
+from demcal.errors import ConfigError, SimulationError
+
+#: Controller and sampling interval [s].
+CHECK = 0.005
+#: Container yield speed per unit along-slope force / weight [m/s].
+V_REF = 1.0
+
+
+def block_template(radius: float = 0.005):
+    """A flat 3 x 3 clump of spheres of ``radius`` [m] at 1.6 radius spacing."""
+    from demcal.particles.templates import ParticleTemplate
+
+    d = 1.6 * radius
+    spheres = [[i * d, j * d, 0.0, radius] for i in (-1, 0, 1) for j in (-1, 0, 1)]
+    return ParticleTemplate.from_spheres(spheres, name="block", resolution=128)
+
+
+class Incline(C.BenchExperiment):
+    name = "incline"
+    description = ("inclined-plane test on agricultural film: the plate tilts slowly until the "
+                   "material in a bottomless container starts to slide; reports that angle")
+    responses = ("sliding_angle_deg",)
+
+    def _settings(self, profile):
+        P = C.per_profile
+        return (C.material_settings(film=True)
+                + C.particle_settings(profile, P(profile, 120, 300, 1500))
+                + [
+                    Setting("incline.material", "particles", "-",
+                            "loose particles in a container, or one rigid block (a check)",
+                            choices=("particles", "block")),
+                    Setting("incline.container", "follow", "-",
+                            "container during the tilt: follows the material, or removed",
+                            choices=("follow", "remove")),
+                    Setting("incline.tilt_rate", P(profile, 4.0, 3.0, 1.0), "deg/s",
+                            "tilting rate of the plate", 0.01, 90.0),
+                    Setting("incline.start_angle", 15.0, "deg", "angle at which tilting starts", 0.0, 80.0),
+                    Setting("incline.max_angle", 60.0, "deg", "give up above this angle", 1.0, 89.0),
+                    Setting("incline.slide_speed", 0.02, "m/s",
+                            "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
+                    Setting("incline.arm_length", 0.3, "m",
+                            "L: container start to spindle, for H = L sin(theta) (paper: 300 mm)", 0.001, 10.0),
+                    Setting("geometry.scale", 4.0, "-", "container scale factor (as the repose platform)",
+                            0.25, 20.0),
+                    Setting("geometry.container_diameter", 0.05, "m",
+                            "bottomless container diameter at scale 1", 0.002, 2.0),
+                ]
+                + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 20.0, 25.0, 60.0)))
+
+    # ------------------------------------------------------------------------------
+    def _run(self, s, seed, out_dir, vtk, progress):
+        from demcal.geometry import Cylinder, Plane, WallSet
+        from demcal.particles.insertion import CylinderRegion, insert
+        from demcal.particles.materials import Interaction, Material, steel
+
+        block = s["incline.material"] == "block"
+        film = Material(density=s["film.density"], shear_modulus=s["film.shear_modulus"],
+                        poisson_ratio=s["film.poisson_ratio"], yield_strength=s["film.yield_strength"],
+                        name="film")
+        mats = [C.particle_material(s), film, steel()]
+        slick = Interaction(restitution=s["wall.restitution"], static_friction=0.0, rolling_friction=0.0,
+                            damping_factor=s["wall.damping_factor"],
+                            stiffness_factor=s["particle.stiffness_factor"])
+        inter = {(0, 0): C.interaction(s, "particle"), (0, 1): C.interaction(s, "film"),
+                 (0, 2): slick, "default": slick}
+        mu = float(s["film.static_friction"])
+        start = min(float(s["incline.start_angle"]), max(0.0, math.degrees(math.atan(mu)) - 5.0))
+        max_angle = float(s["incline.max_angle"])
+        if start >= max_angle:
+            raise ConfigError(f"incline.start_angle ({start:g} deg) must be below incline.max_angle "
+                              f"({max_angle:g} deg).")
+        rate = math.radians(float(s["incline.tilt_rate"]))
+        k = float(s["geometry.scale"])
+        plane = Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="film")
+        motion = C.DrivenTranslation()
+
+        if block:
+            tpl = block_template()
+            walls = WallSet([plane])
+            dt = C.time_step(s, mats, inter, walls, tpl, 1.0)
+            sim = C.make_simulation(s, mats, inter, walls, dt)
+            sim.add_particles(tpl, [[0.0, 0.0, 0.005 * 1.001]])
+            n = 1
+            settle_time = 0.1
+            container = None
+        else:
+            tpl = C.template_for(s)
+            sizes = C.sizes_for(s)
+            n = C.count_of(s)
+            b_max = float(tpl.bounding_radius) * sizes.max_scale
+            r_c = 0.5 * k * float(s["geometry.container_diameter"])
+            if 2 * r_c < 4 * 2 * b_max:
+                raise ConfigError(
+                    f"the container ({2 * r_c * 1e3:.0f} mm at scale {k:g}) is narrower than four of the "
+                    f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.container_diameter.")
+            lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
+            b_vol = n * 4.0 / 3.0 * math.pi * float(tpl.bounding_radius) ** 3 * C.mean_cube(lo, hi)
+            fill_h = b_vol / (0.25 * math.pi * (0.98 * r_c) ** 2) + 2 * b_max
+            gap = 0.1 * float(np.min(tpl.radii)) * lo
+            container = Cylinder(base=(0, 0, gap), axis=(0, 0, 1), radius=r_c, length=fill_h + 2 * b_max,
+                                 material=2, name="container", motion=motion)
+            walls = WallSet([plane, container])
+            dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
+            sim = C.make_simulation(s, mats, inter, walls, dt, skin=_skin(tpl, sizes))
+            region = CylinderRegion(centre=(0, 0, gap), radius=0.98 * r_c, height=fill_h)
+            ins = insert(region, n, tpl, sizes=sizes, seed=seed)
+            sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales, seed=seed)
+            settle_time = None
+        vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "incline")
+        progress(f"incline: {'one rigid block' if block else f'{n} particles'}, dt {sim.dt:.3g} s, "
+                 f"tilt {math.degrees(rate):g} deg/s from {start:g} deg")
+
+        def each():
+            vtkw(sim)
+            C.check_finite(sim, "incline")
+
+        # 1. the bed settles on the flat plate
+        max_time = float(s["time.max_time"])
+        if settle_time is not None:
+            sim.run(duration=settle_time)
+        else:
+            hits = [0]
+
+            def rest():
+                hits[0] = hits[0] + 1 if C.rms_speed(sim) < float(s["time.rest_speed"]) else 0
+                return hits[0] >= 2
+
+            if not C.run_until(sim, 0.02, rest, max_time, each):
+                raise SimulationError(f"the bed did not settle within time.max_time = {max_time:g} s; "
+                                      "raise time.max_time.")
+            if s["incline.container"] == "remove":
+                motion.place((0.0, 0.0, 100.0))
+        progress(f"bed at rest at t {sim.time:.2f} s; tilting")
+
+        # 2. tilt gravity at a constant rate; the container follows the material
+        t0 = sim.time
+        mass = sim.state.masses.copy()
+        weight = float(mass.sum()) * C.G
+        follow = container is not None and s["incline.container"] == "follow"
+        steps = max(1, int(round(CHECK / sim.dt)))
+        times, angles, speeds = [], [], []
+        v_detect = float(s["incline.slide_speed"])
+        x0 = _mean_x(sim)
+        last = [0.0]
+
+        def tilt_at(t):
+            return math.radians(start) + rate * (t - t0)
+
+        while True:
+            th = tilt_at(sim.time + 0.5 * steps * sim.dt)  # gravity of the coming interval
+            sim.gravity[:] = (C.G * math.sin(th), 0.0, -C.G * math.cos(th))
+            sim.run(steps=steps)
+            each()
+            st = sim.state
+            m = st.masses
+            v = float((m * st.velocities[:, 0]).sum() / m.sum())
+            times.append(sim.time)
+            angles.append(math.degrees(tilt_at(sim.time)))
+            speeds.append(v)
+            if follow:
+                fx = float(sim.wall_forces()["container"][0][0])
+                xc = motion.offset[0] + motion.velocity[0] * steps * sim.dt
+                vc = float(np.clip(v + V_REF * fx / weight, -0.5, 0.5))
+                motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
+            if sim.time - last[0] >= 0.5:
+                last[0] = sim.time
+                progress(f"tilt {angles[-1]:.2f} deg: mean slope velocity {v * 1e3:.2f} mm/s, "
+                         f"displacement {(_mean_x(sim) - x0) * 1e3:.2f} mm")
+            if v > v_detect:
+                break
+            if angles[-1] > max_angle or sim.time > t0 + max_time:
+                raise SimulationError(
+                    f"the material did not slide up to {angles[-1]:.1f} deg (incline.max_angle "
+                    f"{max_angle:g} deg, time.max_time {max_time:g} s); raise them.")
+        vtkw(sim, force=True)
+        theta_c, theta_d = onset_angle(np.array(times), np.array(angles), np.array(speeds), v_detect)
+        L = float(s["incline.arm_length"])
+        progress(f"sliding at {theta_c:.2f} deg (detected at {theta_d:.2f} deg)")
+        responses = {
+            "sliding_angle_deg": theta_c,
+            "sliding_angle_detected_deg": theta_d,
+            "equivalent_height_mm": L * 1e3 * math.sin(math.radians(theta_c)),
+        }
+        spread = {"sliding_angle_deg": math.degrees(rate) * CHECK}
+        artifacts = {"vtk": vtkw.path} if vtkw.path else {}
+        if out_dir is not None:
+            artifacts["incline_png"] = _plot(out_dir, times, angles, speeds, theta_c, v_detect)
+        return dict(responses=responses, spread=spread, particles=n, steps=sim.step_count,
+                    simulated_s=sim.time, artifacts=artifacts)
+
+
+def _skin(tpl, sizes) -> float:
+    return 0.5 * float(np.min(tpl.radii)) * sizes.max_scale
+
+
+def _mean_x(sim) -> float:
+    st = sim.state
+    return float((st.masses * st.positions[:, 0]).sum() / st.masses.sum())
+
+
+def onset_angle(times, angles, speeds, v_detect) -> tuple[float, float]:
+    """(onset angle, detection angle) [deg] from the sampled mean slope velocity.
+
+    ``sqrt(v)`` is fitted linearly in ``t`` over the last run of samples with
+    ``v >= 0.1 v_detect`` (up to the detection) and extrapolated to ``v = 0``; with fewer
+    than three such samples the first of them gives the onset.
+    """
+    n = len(times)
+    j = n - 1
+    while j > 0 and speeds[j - 1] >= 0.1 * v_detect:
+        j -= 1
+    t, a, v = times[j:], angles[j:], speeds[j:]
+    theta_d = float(angles[-1])
+    if len(t) < 3:
+        return float(a[0]), theta_d
+    slope, intercept = np.polyfit(t, np.sqrt(v), 1)
+    if slope <= 0:
+        return float(a[0]), theta_d
+    tc = -intercept / slope
+    lo = times[j - 1] if j > 0 else times[0]
+    tc = float(np.clip(tc, lo, t[-1]))
+    return float(np.interp(tc, times, angles)), theta_d
+
+
+def _plot(out_dir, times, angles, speeds, theta_c, v_detect) -> str:
+    from pathlib import Path
+
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 3.6), dpi=110)
+    ax = fig.add_subplot()
+    ax.plot(angles, np.asarray(speeds) * 1e3, lw=1.2, color="C0")
+    ax.axhline(v_detect * 1e3, color="0.5", ls=":", lw=1, label=f"detection {v_detect * 1e3:g} mm/s")
+    ax.axvline(theta_c, color="C3", lw=1, label=f"onset {theta_c:.2f}°")
+    ax.set_xlabel("tilt angle [deg]")
+    ax.set_ylabel("mean velocity along the slope [mm/s]")
+    ax.legend(frameon=False)
+    ax.set_title("inclined plane: material velocity vs tilt")
+    fig.tight_layout()
+    path = Path(out_dir, "incline.png")
+    fig.savefig(path)
+    return str(path)
+
+
+register(Incline())

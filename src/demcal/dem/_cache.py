@@ -1,0 +1,58 @@
+"""Keep numba's on-disk cache of the engine consistent with its sources.
+
+numba's ``cache=True`` only notices changes to the file that defines a function, not to
+the kernels it calls (a driver in ``forces.py`` inlines ``contact/*.py`` and
+``geometry/kernels.py``). :func:`guard` hashes every engine source the drivers depend on
+and, when the hash differs from the one recorded next to the cache, deletes the
+engine's cache files so they are recompiled. Cheap (a few ms) and run once at import.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+_HERE = Path(__file__).resolve().parent
+_SOURCES = [*_HERE.rglob("*.py"),
+            _HERE.parent / "geometry" / "kernels.py",
+            _HERE.parent / "particles" / "materials.py"]
+
+
+def _digest() -> str:
+    h = hashlib.sha256()
+    for p in sorted(_SOURCES):
+        if p.exists():
+            h.update(p.name.encode())
+            h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _cache_dirs():
+    root = os.environ.get("NUMBA_CACHE_DIR")
+    if root:
+        base = Path(root)
+        if not base.is_dir():
+            return base, []
+        return base, [d for d in base.iterdir()
+                      if d.is_dir() and d.name.split("_")[0] in ("dem", "contact")]
+    dirs = [_HERE / "__pycache__", _HERE / "contact" / "__pycache__"]
+    return _HERE / "__pycache__", [d for d in dirs if d.is_dir()]
+
+
+def guard() -> None:
+    """Delete stale engine cache files when the engine sources changed."""
+    try:
+        digest = _digest()
+        base, dirs = _cache_dirs()
+        stamp = base / "demcal-dem-sources.stamp"
+        if stamp.exists() and stamp.read_text().strip() == digest:
+            return
+        for d in dirs:
+            for f in d.iterdir():
+                if f.suffix in (".nbi", ".nbc"):
+                    f.unlink(missing_ok=True)
+        base.mkdir(parents=True, exist_ok=True)
+        stamp.write_text(digest)
+    except OSError:  # read-only install: numba falls back to its own checks
+        pass

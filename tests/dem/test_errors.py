@@ -1,0 +1,81 @@
+"""Bad input gets one clear ConfigError sentence naming the parameter."""
+
+import numpy as np
+import pytest
+
+from demcal.dem import Simulation
+from demcal.errors import ConfigError
+from demcal.particles.materials import Interaction, Material
+
+from dem_helpers import GLASS, RADIUS
+
+
+def make(**kw):
+    args = dict(materials=[GLASS], interactions=Interaction())
+    args.update(kw)
+    return Simulation(**args)
+
+
+def test_unknown_contact_model(backend):
+    with pytest.raises(ConfigError, match="contact_model 'hertz_mindlinn'"):
+        make(contact_model="hertz_mindlinn", backend=backend)
+
+
+def test_unknown_rolling_model(backend):
+    with pytest.raises(ConfigError, match="rolling_model 'type_b'"):
+        make(rolling_model="type_b", backend=backend)
+
+
+@pytest.mark.parametrize("e", [0.0, -0.2, 1.5, float("nan")])
+def test_restitution_out_of_range(e):
+    with pytest.raises(ConfigError, match="restitution"):
+        Interaction(restitution=e)
+
+
+@pytest.mark.parametrize("name", ["static_friction", "rolling_friction", "damping_factor"])
+def test_negative_friction(name):
+    with pytest.raises(ConfigError, match=name):
+        Interaction(**{name: -0.1})
+
+
+@pytest.mark.parametrize("field,value", [("density", 0.0), ("shear_modulus", -1.0),
+                                         ("poisson_ratio", 0.5), ("yield_strength", 0.0)])
+def test_bad_material(field, value):
+    args = dict(density=1000.0, shear_modulus=1e7, poisson_ratio=0.3)
+    args[field] = value
+    with pytest.raises(ConfigError, match=field):
+        Material(**args)
+
+
+def test_particle_larger_than_domain(backend):
+    sim = make(domain=((0, 0, 0), (0.008, 0.1, 0.1)), backend=backend)
+    with pytest.raises(ConfigError, match="larger than the domain"):
+        sim.add_particles(RADIUS, [[0.004, 0.05, 0.05]])
+
+
+def test_time_step_above_stable_limit(backend):
+    sim = make(dt=1e-3, backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, 0]])
+    with pytest.raises(ConfigError, match="dt = 0.001 s is above the stable limit"):
+        sim.run(steps=1)
+
+
+def test_unknown_material_and_missing_pair(backend):
+    sim = make(backend=backend)
+    with pytest.raises(ConfigError, match="unknown material 'steel'"):
+        sim.add_particles(RADIUS, [[0, 0, 0]], material="steel")
+    steel = Material(7800, 7e10, 0.3, name="steel")
+    with pytest.raises(ConfigError, match="no interaction defined between materials 'glass' "
+                                          "and 'steel'"):
+        Simulation([GLASS, steel], {(0, 0): Interaction()}, backend=backend)
+
+
+def test_run_needs_duration_or_steps(backend):
+    sim = make(backend=backend)
+    with pytest.raises(ConfigError, match="exactly one of duration"):
+        sim.run()
+
+
+def test_unknown_backend():
+    with pytest.raises(ConfigError, match="unknown backend 'cuda'"):
+        make(backend="cuda")

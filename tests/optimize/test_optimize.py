@@ -1,0 +1,137 @@
+"""Desirability functions and the multi-start search, including the paper's targets.
+
+Acceptance 3 of issue 2: solving Eq. (4) of the reference paper (IJABE 2020,
+DOI 10.25165/j.ijabe.20201304.5586) for beta = 31.07 and 39.88 deg and Eq. (6) for
+theta = 25.42 and 30.46 deg gives solutions within 0.01 deg of the target inside the
+design box, and the solution set's factor ranges.
+"""
+
+import importlib.resources
+import json
+
+import numpy as np
+import pytest
+
+from demcal.cli import main
+from demcal.errors import ConfigError, DataError
+from demcal.optimize import Goal, optimize, overall_desirability, parse_goal
+from demcal.report.paper import REPOSE, SLIDING, fit_study
+
+DATA = importlib.resources.files("demcal") / "data"
+TABLE4 = str(DATA / "paper_table4_repose_bbd.csv")
+
+
+def test_desirability_shapes_derringer_suich():
+    g = Goal("y", "target", 5.0, low=0.0, high=20.0)
+    assert g.desirability([0.0, 2.5, 5.0, 12.5, 20.0, 25.0]) == pytest.approx([0, 0.5, 1, 0.5, 0, 0])
+    g2 = Goal("y", "target", 5.0, low=0.0, high=10.0, weight_low=2.0, weight_high=0.5)
+    assert g2.desirability([2.5, 7.5]) == pytest.approx([0.25, np.sqrt(0.5)])
+    mx = Goal("y", "max", low=0.0, high=10.0)
+    assert mx.desirability([-1, 5, 11]) == pytest.approx([0, 0.5, 1])
+    mn = Goal("y", "min", low=0.0, high=10.0)
+    assert mn.desirability([-1, 5, 11]) == pytest.approx([1, 0.5, 0])
+    rg = Goal("y", "in_range", low=1.0, high=2.0)
+    assert rg.desirability([0.5, 1.5, 2.5]) == pytest.approx([0, 1, 0])
+    # overall: weighted geometric mean with importance as exponents
+    D = overall_desirability([[0.25], [1.0]], [1, 3])
+    assert D[0] == pytest.approx(0.25 ** 0.25)
+    assert overall_desirability([[0.0], [1.0]], [3, 3])[0] == 0.0
+    # scalar path and derivative agree with the vectorised one
+    for goal in (g, g2, mx, mn):
+        for y in (1.0, 4.0, 6.0, 9.0):
+            d, dd = goal.scalar(y)
+            assert d == pytest.approx(float(goal.desirability(y)))
+            num = (goal.desirability(y + 1e-6) - goal.desirability(y - 1e-6)) / 2e-6
+            assert dd == pytest.approx(float(num), rel=1e-4, abs=1e-8)
+
+
+def test_parse_goal():
+    g = parse_goal("beta=target:31.07:importance=5:weight=2")
+    assert (g.response, g.kind, g.target, g.importance, g.weight_low) == ("beta", "target", 31.07, 5, 2.0)
+    assert parse_goal("y=max").kind == "maximize"
+    r = parse_goal("y=range:10:20")
+    assert (r.kind, r.low, r.high) == ("in_range", 10.0, 20.0)
+    for bad in ("y", "y=target", "y=sideways", "y=target:x"):
+        with pytest.raises(ConfigError):
+            parse_goal(bad)
+
+
+@pytest.fixture(scope="module")
+def models():
+    return {"repose": fit_study(REPOSE), "sliding": fit_study(SLIDING)}
+
+
+@pytest.mark.parametrize("study, target", [("repose", 31.07), ("repose", 39.88),
+                                           ("sliding", 25.42), ("sliding", 30.46)])
+def test_paper_targets_are_reached_with_a_solution_set(models, study, target):
+    m = models[study]
+    res = optimize({m.response: m}, [Goal(m.response, "target", target)], n_starts=12, seed=1)
+    sol = res.solutions
+    assert len(sol) >= 3
+    good = sol[sol["desirability"] >= 0.99]
+    assert len(good) == len(sol)
+    assert np.abs(good[f"predicted:{m.response}"] - target).max() < 0.01
+    coded = good[[f"coded:{f.name}" for f in m.factors]].to_numpy()
+    assert np.all(np.abs(coded) <= 1 + 1e-12)
+    # the predictions are the model's at those points, and actual = decoded coded
+    assert m.predict(coded) == pytest.approx(good[f"predicted:{m.response}"].to_numpy())
+    for f in m.factors:
+        assert good[f"actual:{f.name}"].to_numpy() == pytest.approx(f.to_actual(good[f"coded:{f.name}"]))
+        lo, hi = res.factor_ranges[f.name]
+        assert f.low - 1e-9 <= lo <= hi <= f.high + 1e-9
+        assert lo <= good[f"actual:{f.name}"].min() + 1e-9 and hi >= good[f"actual:{f.name}"].max() - 1e-9
+    # every point reported in the solution set really has D >= threshold
+    g = res.goals[0]
+    assert np.all(g.desirability(m.predict(res.set_points)) >= 0.99 - 1e-9)
+
+
+def test_unreachable_target_and_impossible_range(models):
+    m = models["repose"]
+    with pytest.raises(DataError, match="outside what the model can reach"):
+        optimize({m.response: m}, [Goal(m.response, "target", 60.0)], n_starts=4)
+    with pytest.raises(DataError):
+        optimize({m.response: m}, [Goal(m.response, "in_range", low=70.0, high=80.0)], n_starts=4)
+
+
+def test_two_responses_at_once(models):
+    m = models["repose"]
+    # the same model under a second name: one maximised with low importance, one on target
+    other = fit_study(REPOSE)
+    other.response = "copy"
+    res = optimize({m.response: m, "copy": other},
+                   [Goal(m.response, "target", 35.0, importance=5), Goal("copy", "max", importance=1)],
+                   n_starts=8)
+    best = res.solutions.iloc[0]
+    assert 0 < best["desirability"] <= 1
+    assert abs(best[f"predicted:{m.response}"] - 35.0) < 1.0
+
+
+def test_optimize_cli_json(capsys):
+    rc = main(["optimize", TABLE4, "--response", "repose_angle_deg", "--target", "31.07",
+               "--factor", "A=0.5:0.7", "--factor", "B=0.3:0.5", "--factor", "C=0.1:0.3",
+               "--factor", "D=0:0.2", "--starts", "8", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out) == {"solutions", "factor_ranges"}
+    s = out["solutions"][0]
+    assert set(s) == {"coded", "actual", "predicted", "desirability"}
+    assert abs(s["predicted"]["repose_angle_deg"] - 31.07) < 0.01
+    assert s["actual"]["A"] == pytest.approx(0.6 + 0.1 * s["coded"]["A"])
+    assert set(out["factor_ranges"]) == {"A", "B", "C", "D"}
+    lo, hi = out["factor_ranges"]["C"]
+    assert 0.1 - 1e-9 <= lo <= hi <= 0.3 + 1e-9
+
+
+def test_optimize_cli_bad_inputs(capsys, tmp_path):
+    assert main(["optimize", TABLE4, "--response", "repose_angle_deg", "--target", "75",
+                 "--starts", "4"]) == 2
+    err = capsys.readouterr().err
+    assert "outside what the model can reach" in err and "Traceback" not in err
+    assert main(["optimize", TABLE4, "--response", "repose_angle_deg"]) == 2
+    assert "--target" in capsys.readouterr().err
+    assert main(["optimize", TABLE4, "--response", "nope", "--target", "1"]) == 2
+    assert "no column 'nope'" in capsys.readouterr().err
+    plot = tmp_path / "set.png"
+    assert main(["optimize", TABLE4, "--response", "repose_angle_deg", "--target", "39.88",
+                 "--starts", "4", "--plot", str(plot)]) == 0
+    assert plot.stat().st_size > 1000
