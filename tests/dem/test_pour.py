@@ -52,12 +52,12 @@ def _settle(backend, n, width, duration):
 
 
 def test_pour_small_comes_to_rest(backend):
-    _settle(backend, 300, 0.03, 0.6)
+    _settle(backend, 120, 0.02, 0.5)
 
 
 @pytest.mark.slow
 def test_pour_2000_comes_to_rest(backend):
-    _settle(backend, 2000, 0.06, 0.8)
+    _settle(backend, 2000, 0.06, 1.2)
 
 
 def test_checkpoint_restart_is_bit_identical(backend, tmp_path):

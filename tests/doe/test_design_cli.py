@@ -1,6 +1,7 @@
 """``demcal design`` and design CSV files."""
 
 import numpy as np
+import pytest
 import pandas as pd
 
 from demcal.cli import main
@@ -49,3 +50,22 @@ def test_design_cli_bad_input_one_sentence(capsys):
     assert err.startswith("demcal: error: ") and err.count("\n") == 1 and "Traceback" not in err
     assert main(["design", "box-behnken", "--factor", "e=0.5:0.7", "--factor", "m=1:2"]) == 2
     assert "3 to 7 factors" in capsys.readouterr().err
+
+
+def test_design_file_round_trip_through_analyze(tmp_path, capsys):
+    """A design written by `demcal design`, with responses added, analyses in coded units."""
+    import json
+
+    out = tmp_path / "d.csv"
+    assert main(["design", "box-behnken", "--factor", "e=0.5:0.7", "--factor", "mu=0.3:0.5",
+                 "--factor", "g=0.1:0.3", "--seed", "5", "-o", str(out)]) == 0
+    header = [ln for ln in out.read_text().splitlines() if ln.startswith("#")]
+    df = pd.read_csv(out, comment="#")
+    x = np.column_stack([(df["e"] - 0.6) / 0.1, (df["mu"] - 0.4) / 0.1, (df["g"] - 0.2) / 0.1])
+    df["angle"] = 30 + 2 * x[:, 0] - x[:, 1] + 0.5 * x[:, 0] * x[:, 2] + 0.01 * np.sin(np.arange(len(df)))
+    out.write_text("\n".join(header) + "\n" + df.to_csv(index=False))
+    capsys.readouterr()
+    assert main(["analyze", str(out), "--response", "angle", "--json"]) == 0
+    coefs = json.loads(capsys.readouterr().out)["coefficients"]
+    assert list(coefs)[:4] == ["Intercept", "e", "mu", "g"]
+    assert coefs["e"] == pytest.approx(2.0, abs=0.02) and coefs["e*g"] == pytest.approx(0.5, abs=0.02)

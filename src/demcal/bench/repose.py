@@ -291,7 +291,7 @@ class ReposeCylinder(C.BenchExperiment):
                 + [
                     Setting("geometry.scale", 4.0, "-", "platform scale factor (paper: 4)", 0.25, 20.0),
                     Setting("geometry.plate_diameter", 0.25, "m", "base plate diameter at scale 1", 0.01, 10.0),
-                    Setting("geometry.cylinder_diameter", P(profile, 0.025, 0.03, 0.08), "m",
+                    Setting("geometry.cylinder_diameter", P(profile, 0.03, 0.03, 0.08), "m",
                             "cylinder inner diameter at scale 1", 0.002, 2.0),
                     Setting("geometry.lift_speed", P(profile, 0.1, 0.1, 0.05), "m/s",
                             "cylinder lifting speed", 0.001, 10.0),

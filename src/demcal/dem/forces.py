@@ -23,6 +23,7 @@ from numba import njit
 from demcal.geometry.kernels import wall_distance
 
 from .contact.kernel import HIST_WIDTH, contact
+from .contact.registry import ROLLING_CONSTANT, ROLLING_EPSD
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -75,11 +76,15 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (bvel[bj, 2] + wjx * ajy - wjy * ajx)
             mi = bmass[bi]
             mj = bmass[bj]
-            li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
-            lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
-            ii = (binertia[bi, 0] + binertia[bi, 1] + binertia[bi, 2]) / 3.0
-            ij = (binertia[bj, 0] + binertia[bj, 1] + binertia[bj, 2]) / 3.0
-            inv_ir = 1.0 / (ii + mi * li * li) + 1.0 / (ij + mj * lj * lj)
+            li = 0.0
+            lj = 0.0
+            inv_ir = 0.0
+            if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
+                li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
+                lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
+                ii = (binertia[bi, 0] + binertia[bi, 1] + binertia[bi, 2]) / 3.0
+                ij = (binertia[bj, 0] + binertia[bj, 1] + binertia[bj, 2]) / 3.0
+                inv_ir = 1.0 / (ii + mi * li * li) + 1.0 / (ij + mj * lj * lj)
             fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
                 models, table, bmat[bi], bmat[bj], hist, p, delta, nx, ny, nz,
                 vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz, li, lj,
@@ -136,9 +141,12 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             vry = (bvel[bi, 1] + wiz * aix - wix * aiz) - (wvel[w, 1] + wjz * ajx - wjx * ajz)
             vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (wvel[w, 2] + wjx * ajy - wjy * ajx)
             mi = bmass[bi]
-            li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
-            ii = (binertia[bi, 0] + binertia[bi, 1] + binertia[bi, 2]) / 3.0
-            inv_ir = 1.0 / (ii + mi * li * li)
+            li = 0.0
+            inv_ir = 0.0
+            if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
+                li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
+                ii = (binertia[bi, 0] + binertia[bi, 1] + binertia[bi, 2]) / 3.0
+                inv_ir = 1.0 / (ii + mi * li * li)
             fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
                 models, table, bmat[bi], wmat[w], whist, q, delta, nx, ny, nz,
                 vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz, li, 0.0,

@@ -123,7 +123,8 @@ class Simulation:
     impact_speed : float
         Characteristic impact speed [m/s] for the Hertz contact-time check (default 2).
     skin : float, optional
-        Neighbour-list skin [m]; default 0.4 x the smallest sphere radius.
+        Neighbour-list skin [m]; default half the largest sphere radius (as the LIGGGHTS
+        comparison uses).
     domain : (lo, hi), optional
         Box [m]; particles are refused if they do not fit, and particles leaving it are
         removed (counted in ``sim.escaped``).
@@ -492,7 +493,7 @@ class Simulation:
             return float(self._skin_user)
         if self.n_spheres == 0:
             return 0.0
-        return 0.4 * float(self._s["radius"].min())
+        return 0.5 * float(self._s["radius"].max())
 
     # ------------------------------------------------------------------ neighbours --
     def _rebuild(self):

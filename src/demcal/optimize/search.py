@@ -262,6 +262,10 @@ def optimize(
         if problem.D(x)[0] >= problem.D(found[i])[0]:
             found[i] = x
     found = np.array(found)
+    # snap round-off next to the bounds onto them (a solver stops at 1e-9, not at 0)
+    for j in range(k):
+        for b in bounds[j]:
+            found[np.abs(found[:, j] - b) < 1e-7, j] = b
     D = problem.D(found)
     if D.max() <= 0:
         raise DataError(

@@ -265,7 +265,7 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
         anova["paper F"] = [rev.get(s, ("", "", ""))[1] for s in anova.index]
         anova["paper p"] = [rev.get(s, ("", "", ""))[2] for s in anova.index]
     report.table(anova, f"{name}_anova", caption=f"{label}ANOVA of {model.response} "
-                 "(** p ≤ 0.01, * p ≤ 0.05)")
+                 "(** p ≤ 0.01, * p ≤ 0.05)", digits=5)
     for n in model.notes:
         report.note(n)
     report.table(fit_table(model, printed_fit), f"{name}_fit", caption="Fit statistics")

@@ -23,7 +23,7 @@ from .registry import DAMPING_HYSTERETIC, DAMPING_TSUJI, DAMPING_VISCOUS
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def normal_damping(model, beta, zeta, k, m_eff, vn):
     """Damping force [N] along the normal (positive = repulsive)."""
     if k <= 0.0:

@@ -20,13 +20,13 @@ HIST_WIDTH = 8
 H_DELTA0 = 3
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def reset_history(hist, h):
     for k in range(HIST_WIDTH):
         hist[h, k] = 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
             vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
             lever_i, lever_j, r_eff, m_eff, inv_ir, dt):
@@ -50,27 +50,28 @@ def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
     (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz)
         Contact force on i [N] (j gets the opposite) and the rolling torques [N m].
     """
-    p = table[mi, mj]
-    e = p[P_E]
-    beta = p[P_BETA]
+    e = table[mi, mj, P_E]
+    beta = table[mi, mj, P_BETA]
+    ymin = table[mi, mj, P_YMIN]
     vn = vrx * nx + vry * ny + vrz * nz
-    fs, k, d0 = normal_force(models[0], delta, hist[h, H_DELTA0], r_eff, p[P_ESTAR],
-                             p[P_YMIN], e)
+    fs, k, d0 = normal_force(models[0], delta, hist[h, H_DELTA0], r_eff, table[mi, mj, P_ESTAR],
+                             ymin, e)
     hist[h, H_DELTA0] = d0
-    fd = normal_damping(models[1], beta, p[P_ZETA], k, m_eff, vn)
+    fd = normal_damping(models[1], beta, table[mi, mj, P_ZETA], k, m_eff, vn)
     fn = fs + fd
     if models[0] == NORMAL_HYSTERETIC and fn < 0.0:
         fn = 0.0
     vtx = vrx - vn * nx
     vty = vry - vn * ny
     vtz = vrz - vn * nz
-    k1 = loading_stiffness(r_eff, p[P_YMIN])
+    k1 = loading_stiffness(r_eff, ymin)
     ftx, fty, ftz = tangential_force(models[2], hist, h, nx, ny, nz, vtx, vty, vtz, dt,
-                                     delta, r_eff, m_eff, p[P_GSTAR], beta, k1, p[P_XI],
-                                     p[P_MU_S], fn)
+                                     delta, r_eff, m_eff, table[mi, mj, P_GSTAR], beta, k1,
+                                     table[mi, mj, P_XI], table[mi, mj, P_MU_S], fn)
     fpos = fn if fn > 0.0 else 0.0
     kr = k if k > 0.0 else k1
     tix, tiy, tiz, tjx, tjy, tjz = rolling_torque(
         models[3], hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
-        lever_i, lever_j, r_eff, p[P_MU_R], fpos, kr, p[P_ETA_R], inv_ir, dt)
+        lever_i, lever_j, r_eff, table[mi, mj, P_MU_R], fpos, kr, table[mi, mj, P_ETA_R],
+        inv_ir, dt)
     return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz)

@@ -23,13 +23,13 @@ from numba import njit
 from .registry import NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def hertz(delta, r_eff, estar):
     sq = math.sqrt(r_eff * delta)
     return 4.0 / 3.0 * estar * sq * delta, 2.0 * estar * sq
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def hysteretic(delta, delta0, r_eff, ymin, e):
     k1 = 5.0 * r_eff * ymin
     k2 = k1 / (e * e)
@@ -42,7 +42,7 @@ def hysteretic(delta, delta0, r_eff, ymin, e):
     return 0.0, 0.0, delta0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def normal_force(model, delta, delta0, r_eff, estar, ymin, e):
     """Dispatch on the normal slot; see the module docstring."""
     if model == NORMAL_HERTZ:
@@ -56,7 +56,7 @@ def normal_force(model, delta, delta0, r_eff, estar, ymin, e):
     return 0.0, 0.0, delta0
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def loading_stiffness(r_eff, ymin):
     """K1 = 5 R* min(Y_i, Y_j) [N/m] (Walton 2006, EDEM HSCM)."""
     return 5.0 * r_eff * ymin

@@ -25,7 +25,7 @@ from .registry import TANGENTIAL_LINEAR, TANGENTIAL_MINDLIN
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", fastmath=True)
 def tangential_force(model, hist, h, nx, ny, nz, vtx, vty, vtz, dt,
                      delta, r_eff, m_eff, gstar, beta, k1, xi, mu_s, fn):
     """Tangential force on particle i [N]; updates ``hist[h, 0:3]``."""

@@ -100,7 +100,7 @@ def test_two_responses_at_once(models):
     other.response = "copy"
     res = optimize({m.response: m, "copy": other},
                    [Goal(m.response, "target", 35.0, importance=5), Goal("copy", "max", importance=1)],
-                   n_starts=8)
+                   n_starts=4)
     best = res.solutions.iloc[0]
     assert 0 < best["desirability"] <= 1
     assert abs(best[f"predicted:{m.response}"] - 35.0) < 1.0
