@@ -60,6 +60,8 @@ def build(n, clumps, threads, rolling, settle_time):
         template = R0
     width = (n * SOLID_PER_PARTICLE / 0.7) ** (1 / 3)
     height = 2.5 * width  # insertion region: random insertion reaches ~30 % solids
+    if clumps:  # insertion tests bounding spheres, which are larger than the clumps
+        height *= (template.bounding_radius / R0) ** 3
     walls = WallSet([Box(lower=(0, 0, 0), upper=(width, width, height), material=0,
                          name="box")])
     inter = Interaction(restitution=0.6, static_friction=0.4, rolling_friction=0.2)
@@ -74,6 +76,39 @@ def build(n, clumps, threads, rolling, settle_time):
     sim.add_particles(template, ins.positions[order], orientations=ins.orientations[order],
                       scales=ins.scales[order])
     return sim, width, height
+
+
+BASE = 5000  # particles in the settled packing that larger ones are tiled from
+
+
+def tiled(base, n, clumps, threads, rolling):
+    """A settled packing of n = k * BASE particles: k copies of the settled BASE bed side
+    by side in a k-times wider box (then relaxed briefly by the caller). Settling 100,000
+    particles from scratch would take hours on two cores; tiling gives the same bed depth,
+    contact density and polydispersity."""
+    from demcal.dem import Simulation
+    from demcal.geometry import Box, WallSet
+    from demcal.particles.materials import Interaction, soil
+
+    k = n // BASE
+    nx = int(math.floor(math.sqrt(k)))
+    while k % nx:
+        nx -= 1
+    ny = k // nx
+    st = base.state
+    width = base.walls.walls[0].upper[0]
+    height = base.walls.walls[0].upper[2]
+    walls = WallSet([Box(lower=(0, 0, 0), upper=(nx * width, ny * width, height),
+                         material=0, name="box")])
+    inter = Interaction(restitution=0.6, static_friction=0.4, rolling_friction=0.2)
+    sim = Simulation([soil()], inter, walls=walls, rolling_model=rolling, threads=threads,
+                     dt=base.dt)
+    tpl = base.templates[0]
+    for ix in range(nx):
+        for iy in range(ny):
+            sim.add_particles(tpl, st.positions + [ix * width, iy * width, 0.0],
+                              orientations=st.quaternions, scales=st.scales)
+    return sim, nx * width, height
 
 
 def packing_path(n, clumps, rolling):
@@ -96,9 +131,11 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     t0 = time.perf_counter()
-    sim, width, height = build(args.particles, args.clumps, args.threads, args.rolling,
-                               args.settle_time)
-    path = packing_path(args.particles, args.clumps, args.rolling)
+    n_req = args.particles
+    tile = n_req > BASE and n_req % BASE == 0
+    sim, _, _ = build(BASE if tile else n_req, args.clumps, args.threads,
+                               args.rolling, args.settle_time)
+    path = packing_path(BASE if tile else n_req, args.clumps, args.rolling)
     t1 = time.perf_counter()
     sim.run(steps=1)
     compile_s = time.perf_counter() - t1
@@ -108,13 +145,22 @@ def main(argv=None):
         sim.run(duration=args.settle_time)
         path.parent.mkdir(exist_ok=True)
         sim.save_checkpoint(path)
-        if not args.clumps:
-            st = sim.state
-            np.savez(path.with_suffix(".liggghts.npz"), positions=st.positions,
-                     radii=st.radii, velocities=st.velocities,
-                     box=np.array([0, 0, 0, width, width, height]), dt=sim.dt,
-                     skin=sim.skin, density=1687.85, shear_modulus=1e6, poisson_ratio=0.46,
-                     restitution=0.6, static_friction=0.4, rolling_friction=0.2)
+    if tile:
+        sim, _, _ = tiled(sim, n_req, args.clumps, args.threads, args.rolling)
+        path = packing_path(n_req, args.clumps, args.rolling)
+        if path.exists() and not args.rebuild:
+            sim.load_checkpoint(path)
+        else:
+            sim.run(duration=0.03)  # relax the seams between tiles
+            sim.save_checkpoint(path)
+    lpath = path.with_suffix(".liggghts.npz")
+    if not args.clumps and (args.rebuild or not lpath.exists()):
+        st = sim.state
+        box = sim.walls.walls[0]
+        np.savez(lpath, positions=st.positions, radii=st.radii, velocities=st.velocities,
+                 box=np.concatenate([box.lower, box.upper]), dt=sim.dt, skin=sim.skin,
+                 density=1687.85, shear_modulus=1e6, poisson_ratio=0.46, restitution=0.6,
+                 static_friction=0.4, rolling_friction=0.2)
     ke = sim.kinetic_energy()
     sim.run(steps=50)  # warm-up (neighbour list, caches)
     rebuilds0 = sim.rebuilds

@@ -13,9 +13,9 @@ The simulation
   tilted* about the spindle axis (``y``) at ``incline.tilt_rate`` [deg/s],
   ``g(theta) = 9.81 (sin theta, 0, -cos theta)`` m/s2, so the slope runs down along
   ``+x``. In the plate's frame this is exact up to the inertial forces of a frame turning
-  at a constant rate (centrifugal ``omega^2 r`` and Coriolis ``2 omega v``): at the default
-  2 deg/s and 0.3 m from the spindle they are below 1e-4 g, and no wall motion has to be
-  integrated. The tilt starts at ``incline.start_angle`` (lowered automatically to
+  at a constant rate (centrifugal ``omega^2 r`` and Coriolis ``2 omega v``): at the quick
+  profile's 5 deg/s, 0.3 m from the spindle and up to the detection speed they are below
+  5e-4 g, and no wall motion has to be integrated. The tilt starts at ``incline.start_angle`` (lowered automatically to
   ``atan(film.static_friction) - 5 deg`` when that is smaller).
 * **Bottomless container.** A steel-coloured but *frictionless* cylinder (particle-container
   static and rolling friction 0) of diameter ``geometry.container_diameter`` x
@@ -43,8 +43,9 @@ The simulation
 3 x 3 clump of overlapping 5 mm spheres -- without a container: it must slide at
 ``atan(film.static_friction)`` (a check of the contact model and of the onset detection).
 
-Profiles: ``tiny`` 120 particles, ``quick`` 300 (about two layers in a 200 mm container at
-scale 4), ``paper`` 1500 (a bed about eight layers deep).
+Profiles: ``tiny`` 120 particles tilted at 10 deg/s, ``quick`` 250 (about two layers in a
+200 mm container at scale 4) at 5 deg/s, ``paper`` 1500 (a bed about eight layers deep) at
+1 deg/s.
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ class Incline(C.BenchExperiment):
     def _settings(self, profile):
         P = C.per_profile
         return (C.material_settings(film=True)
-                + C.particle_settings(profile, P(profile, 120, 300, 1500))
+                + C.particle_settings(profile, P(profile, 120, 250, 1500))
                 + [
                     Setting("incline.material", "particles", "-",
                             "loose particles in a container, or one rigid block (a check)",
@@ -89,7 +90,7 @@ class Incline(C.BenchExperiment):
                     Setting("incline.container", "follow", "-",
                             "container during the tilt: follows the material, or removed",
                             choices=("follow", "remove")),
-                    Setting("incline.tilt_rate", P(profile, 4.0, 3.0, 1.0), "deg/s",
+                    Setting("incline.tilt_rate", P(profile, 10.0, 5.0, 1.0), "deg/s",
                             "tilting rate of the plate", 0.01, 90.0),
                     Setting("incline.start_angle", 15.0, "deg", "angle at which tilting starts", 0.0, 80.0),
                     Setting("incline.max_angle", 60.0, "deg", "give up above this angle", 1.0, 89.0),
@@ -158,7 +159,7 @@ class Incline(C.BenchExperiment):
                                  material=2, name="container", motion=motion)
             walls = WallSet([plane, container])
             dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
-            sim = C.make_simulation(s, mats, inter, walls, dt, skin=_skin(tpl, sizes))
+            sim = C.make_simulation(s, mats, inter, walls, dt, skin=C.skin_for(tpl))
             region = CylinderRegion(centre=(0, 0, gap), radius=0.98 * r_c, height=fill_h)
             ins = insert(region, n, tpl, sizes=sizes, seed=seed)
             sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales, seed=seed)
@@ -246,10 +247,6 @@ class Incline(C.BenchExperiment):
                     simulated_s=sim.time, artifacts=artifacts)
 
 
-def _skin(tpl, sizes) -> float:
-    return 0.5 * float(np.min(tpl.radii)) * sizes.max_scale
-
-
 def _mean_x(sim) -> float:
     st = sim.state
     return float((st.masses * st.positions[:, 0]).sum() / st.masses.sum())
@@ -259,8 +256,9 @@ def onset_angle(times, angles, speeds, v_detect) -> tuple[float, float]:
     """(onset angle, detection angle) [deg] from the sampled mean slope velocity.
 
     ``sqrt(v)`` is fitted linearly in ``t`` over the last run of samples with
-    ``v >= 0.1 v_detect`` (up to the detection) and extrapolated to ``v = 0``; with fewer
-    than three such samples the first of them gives the onset.
+    ``v >= 0.1 v_detect`` (up to the detection) and extrapolated to ``v = 0`` (at most
+    two fitted spans back); with fewer than three such samples the first of them gives
+    the onset.
     """
     n = len(times)
     j = n - 1
@@ -274,7 +272,8 @@ def onset_angle(times, angles, speeds, v_detect) -> tuple[float, float]:
     if slope <= 0:
         return float(a[0]), theta_d
     tc = -intercept / slope
-    lo = times[j - 1] if j > 0 else times[0]
+    # an exact (t - tc)^2 rise puts tc 0.46 fitted spans back; allow at most two
+    lo = max(times[0], t[0] - 2.0 * (t[-1] - t[0]))
     tc = float(np.clip(tc, lo, t[-1]))
     return float(np.interp(tc, times, angles)), theta_d
 

@@ -115,7 +115,6 @@ def _measure(sim, s, plate_radius, out_dir, title):
         "heap_fit_r2": m.r2,
         "heap_height_mm": m.height * 1e3,
         "heap_diameter_mm": m.diameter * 1e3,
-        "heap_particles": float(m.n_particles),
     }
     return responses, {"repose_angle_deg": m.spread_deg}, artifacts
 
@@ -141,7 +140,7 @@ class ReposeFunnel(C.BenchExperiment):
     def _settings(self, profile):
         P = C.per_profile
         return (C.material_settings()
-                + C.particle_settings(profile, P(profile, 250, 1000, 20000))
+                + C.particle_settings(profile, P(profile, 150, 500, 20000))
                 + [
                     Setting("particles.rate", P(profile, 4000.0, 4000.0, 3000.0), "1/s",
                             "generation rate above the funnel (slowed down while the region is full)",
@@ -151,7 +150,7 @@ class ReposeFunnel(C.BenchExperiment):
                     Setting("geometry.outlet_diameter", 0.025, "m", "funnel outlet diameter at scale 1", 0.001, 1.0),
                     Setting("geometry.funnel_diameter", 0.1, "m", "funnel rim diameter at scale 1", 0.002, 2.0),
                     Setting("geometry.funnel_height", 0.05, "m", "funnel cone height at scale 1", 0.001, 2.0),
-                    Setting("geometry.outlet_height", P(profile, 0.04, 0.06, 0.1), "m",
+                    Setting("geometry.outlet_height", P(profile, 0.02, 0.03, 0.1), "m",
                             "outlet height above the plate at scale 1", 0.001, 5.0),
                 ]
                 + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 6.0, 10.0, 40.0))
@@ -206,7 +205,7 @@ class ReposeFunnel(C.BenchExperiment):
         top = rim + b_max + region_h
         domain = ((-r_plate - 0.2, -r_plate - 0.2, -0.05), (r_plate + 0.2, r_plate + 0.2, top + 1.0))
         dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
-        sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain)
+        sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain, skin=C.skin_for(tpl))
         inserter = Inserter(region, n, tpl, sizes=sizes, rate=float(s["particles.rate"]), seed=seed)
         bradius = np.zeros(0)
         vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "repose_funnel")
@@ -335,7 +334,7 @@ class ReposeCylinder(C.BenchExperiment):
         ])
         domain = ((-r_plate - 0.2, -r_plate - 0.2, -0.05), (r_plate + 0.2, r_plate + 0.2, 4 * fill_h + 1.0))
         dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
-        sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain)
+        sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain, skin=C.skin_for(tpl))
         region = CylinderRegion(centre=(0, 0, 0), radius=r_cyl * 0.99, height=fill_h)
         ins = insert(region, n, tpl, sizes=sizes, seed=seed)
         sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales, seed=seed)

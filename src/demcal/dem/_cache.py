@@ -14,7 +14,9 @@ import os
 from pathlib import Path
 
 _HERE = Path(__file__).resolve().parent
-_SOURCES = [*_HERE.rglob("*.py"),
+# the modules holding compiled code, and the constants they import
+_SOURCES = [_HERE / "forces.py", _HERE / "integrator.py", _HERE / "neighbours.py",
+            *(_HERE / "contact").glob("*.py"),
             _HERE.parent / "geometry" / "kernels.py",
             _HERE.parent / "particles" / "materials.py"]
 

@@ -4,8 +4,9 @@ Only these loops iterate over contacts (over a range [lo, hi) of spheres, so the
 host can split the work between threads); each contact is evaluated by
 ``contact.kernel.contact``. A pair slot ``p`` (sphere i, sphere j) writes
 ``pair_out[p] = (F on i, torque on body(i) about its centre of mass, torque on
-body(j))``; a wall slot ``q`` writes ``wall_out[q] = (F on the body, torque on the body,
-torque on the wall about its origin)``. Each slot is written by exactly one thread and
+body(j))`` and ``active[p]`` (only active slots are read); a wall slot ``q`` writes
+``wall_out[q] = (F on the body, torque on the body, torque on the wall about its
+origin)`` and ``wactive[q]``. Each slot is written by exactly one thread and
 ``integrator.gather_kick`` sums them in a fixed order, so results are bitwise identical
 for any number of threads.
 
@@ -28,7 +29,7 @@ from .contact.registry import ROLLING_CONSTANT, ROLLING_EPSD
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                binertia, bmat, row_start, nbr, hist, pair_out, lo, hi):
+                binertia, bmat, row_start, nbr, hist, pair_out, active, lo, hi):
     ns = spos.shape[0]
     for i in range(lo, hi):
         bi = sbody[i]
@@ -42,13 +43,13 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             rs = ri + rj
             d2 = dx * dx + dy * dy + dz * dz
             if d2 >= rs * rs:
-                if hist[p, 7] != 0.0:
+                if active[p]:
                     for k in range(HIST_WIDTH):
                         hist[p, k] = 0.0
-                for k in range(9):
-                    pair_out[p, k] = 0.0
+                    active[p] = False
                 continue
             hist[p, 7] = 1.0
+            active[p] = True
             bj = sbody[j]
             d = math.sqrt(d2)
             delta = rs - d
@@ -102,7 +103,7 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                binertia, bmat, wall_start, wid, whist, wall_out,
+                binertia, bmat, wall_start, wid, whist, wall_out, wactive,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):
     ns = spos.shape[0]
     for i in range(lo, hi):
@@ -114,13 +115,13 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                                           spos[i, 2])
             delta = ri - d
             if delta <= 0.0:
-                if whist[q, 7] != 0.0:
+                if wactive[q]:
                     for k in range(HIST_WIDTH):
                         whist[q, k] = 0.0
-                for k in range(9):
-                    wall_out[q, k] = 0.0
+                    wactive[q] = False
                 continue
             whist[q, 7] = 1.0
+            wactive[q] = True
             a = ri - 0.5 * delta
             cx = spos[i, 0] - a * nx
             cy = spos[i, 1] - a * ny
@@ -163,13 +164,15 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
 
 
 @njit(cache=True, error_model="numpy")
-def wall_totals(wall_start, wid, wall_out, nw, out):
+def wall_totals(wall_start, wid, wall_out, wactive, nw, out):
     """Force and torque per wall row, ``out[w] = (F, T about origin)``, fixed order."""
     for w in range(nw):
         for k in range(6):
             out[w, k] = 0.0
     ns = wall_start.shape[0] - 1
     for q in range(wall_start[ns]):
+        if not wactive[q]:
+            continue
         w = wid[q]
         out[w, 0] -= wall_out[q, 0]
         out[w, 1] -= wall_out[q, 1]

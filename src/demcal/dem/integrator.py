@@ -168,8 +168,8 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                binertia, bfixed, bstart, row_start, pair_out, rev_start, rev_pair,
-                wall_start, wall_out, kick, lo, hi):
+                binertia, bfixed, bstart, row_start, pair_out, active, rev_start, rev_pair,
+                wall_start, wall_out, wactive, kick, lo, hi):
     """Sum contact forces and torques per body, add gravity, half kick (if ``kick``)."""
     nb = bvel.shape[0]
     h = 0.5 * dt
@@ -183,6 +183,8 @@ def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmas
         tz = 0.0
         for s in range(bstart[b], bstart[b + 1]):
             for p in range(row_start[s], row_start[s + 1]):
+                if not active[p]:
+                    continue
                 fx += pair_out[p, 0]
                 fy += pair_out[p, 1]
                 fz += pair_out[p, 2]
@@ -191,6 +193,8 @@ def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmas
                 tz += pair_out[p, 5]
             for q in range(rev_start[s], rev_start[s + 1]):
                 p = rev_pair[q]
+                if not active[p]:
+                    continue
                 fx -= pair_out[p, 0]
                 fy -= pair_out[p, 1]
                 fz -= pair_out[p, 2]
@@ -198,6 +202,8 @@ def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmas
                 ty += pair_out[p, 7]
                 tz += pair_out[p, 8]
             for q in range(wall_start[s], wall_start[s + 1]):
+                if not wactive[q]:
+                    continue
                 fx += wall_out[q, 0]
                 fy += wall_out[q, 1]
                 fz += wall_out[q, 2]

@@ -182,6 +182,7 @@ class Simulation:
         self.threads = threads
         self._pool = None
         self.walls = walls
+        self.time = 0.0
         self._wall_arrays()
         nmat = len(self.materials)
         if self._w["material"].size and (self._w["material"].min() < 0
@@ -217,9 +218,11 @@ class Simulation:
     def _alloc_lists(self, ns, cap, wcap):
         self._p = dict(start=np.zeros(ns + 1, np.int64), nbr=np.zeros(cap, np.int64),
                        hist=np.zeros((cap, HIST_WIDTH)), out=np.zeros((cap, 9)),
+                       act=np.zeros(cap, np.bool_),
                        rev_start=np.zeros(ns + 1, np.int64), rev=np.zeros(cap, np.int64))
         self._q = dict(start=np.zeros(ns + 1, np.int64), wid=np.zeros(wcap, np.int64),
-                       hist=np.zeros((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)))
+                       hist=np.zeros((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)),
+                       act=np.zeros(wcap, np.bool_))
 
     def _wall_arrays(self):
         w = self.walls
@@ -541,7 +544,7 @@ class Simulation:
         else:
             new_p = dict(start=start, nbr=np.empty(cap, np.int64),
                          hist=np.empty((cap, HIST_WIDTH)), out=np.zeros((cap, 9)),
-                         rev=np.empty(cap, np.int64))
+                         act=np.zeros(cap, np.bool_), rev=np.empty(cap, np.int64))
         new_p["rev_start"] = np.zeros(ns + 1, np.int64)
         if ns:
             self._par(_nl.pair_rows, ns, s["pos"], s["radius"], s["body"], skin, dims,
@@ -550,6 +553,8 @@ class Simulation:
             self._par(_nl.carry_history, ns, start, new_p["nbr"], new_p["hist"],
                       old_p["start"], old_p["nbr"], old_p["hist"], old_of_new)
             _nl.reverse_index(start, new_p["nbr"], new_p["rev_start"], new_p["rev"])
+        new_p["act"][:npair] = new_p["hist"][:npair, 7] != 0.0
+        new_p["act"][npair:] = False
         self._spare_p = old_p if old_p["nbr"].shape[0] >= cap else None
         self._p = new_p
         # walls
@@ -562,12 +567,14 @@ class Simulation:
         if nq > wcap:
             wcap = _nl.grown(wcap, nq)
         new_q = dict(start=wstart, wid=np.empty(wcap, np.int64),
-                     hist=np.empty((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)))
+                     hist=np.empty((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)),
+                     act=np.zeros(wcap, np.bool_))
         if ns:
             self._par(_nl.wall_rows, ns, s["pos"], s["radius"], skin, w["kind"],
                       w["params"], w["aabb"], wstart, new_q["wid"], True)
             self._par(_nl.carry_wall_history, ns, wstart, new_q["wid"], new_q["hist"],
                       old_q["start"], old_q["wid"], old_q["hist"], old_of_new)
+        new_q["act"][:nq] = new_q["hist"][:nq, 7] != 0.0
         self._q = new_q
         s["ref"][:] = s["pos"]
         self._wall_travel = 0.0
@@ -581,19 +588,19 @@ class Simulation:
         dt = self.dt
         if self.n_spheres:
             ns = self.n_spheres
-            self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"], s["radius"],
-                                s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
-                                b["inertia"], b["mat"], p["start"], p["nbr"], p["hist"],
-                                p["out"])
-            self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"], s["radius"],
-                                s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
-                                b["inertia"], b["mat"], q["start"], q["wid"], q["hist"],
-                                q["out"], w["kind"], w["params"], w["velocity"], w["omega"],
-                                w["origin"], w["material"])
-        self._par(_integ.gather_kick, self.n_particles, dt, self.gravity, b["vel"], b["quat"], b["angmom"], b["omega"],
-                           b["force"], b["torque"], b["mass"], b["inertia"], b["fixed"],
-                           b["start"], p["start"], p["out"], p["rev_start"], p["rev"],
-                           q["start"], q["out"], kick)
+            self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"],
+                      s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
+                      b["inertia"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
+                      p["act"])
+            self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"],
+                      s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
+                      b["inertia"], b["mat"], q["start"], q["wid"], q["hist"], q["out"],
+                      q["act"], w["kind"], w["params"], w["velocity"], w["omega"],
+                      w["origin"], w["material"])
+        self._par(_integ.gather_kick, self.n_particles, dt, self.gravity, b["vel"],
+                  b["quat"], b["angmom"], b["omega"], b["force"], b["torque"], b["mass"],
+                  b["inertia"], b["fixed"], b["start"], p["start"], p["out"], p["act"],
+                  p["rev_start"], p["rev"], q["start"], q["out"], q["act"], kick)
         self._forces_valid = True
 
     def _prepare(self):
@@ -605,9 +612,9 @@ class Simulation:
 
     def _drift(self):
         b, s = self._b, self._s
-        self._par(_integ.drift, self.n_particles, self.dt, b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"],
-                     b["force"], b["torque"], b["mass"], b["inertia"], b["fixed"],
-                     b["start"], s["offset"], s["pos"], s["ref"], s["dsq"])
+        self._par(_integ.drift, self.n_particles, self.dt, b["pos"], b["vel"], b["quat"],
+                  b["angmom"], b["omega"], b["force"], b["torque"], b["mass"], b["inertia"],
+                  b["fixed"], b["start"], s["offset"], s["pos"], s["ref"], s["dsq"])
 
     def _max_disp(self):
         d = self._s["dsq"]
@@ -728,7 +735,8 @@ class Simulation:
         nw = self._w["kind"].shape[0]
         out = np.zeros((nw, 6))
         if nw and self.n_spheres and self._forces_valid:
-            _forces.wall_totals(self._q["start"], self._q["wid"], self._q["out"], nw, out)
+            _forces.wall_totals(self._q["start"], self._q["wid"], self._q["out"],
+                                self._q["act"], nw, out)
         groups = self._w["group"]
         names = self.wall_names or [f"wall{g}" for g in range(int(groups.max()) + 1
                                                                if nw else 0)]
@@ -744,7 +752,7 @@ class Simulation:
         ns = self.n_spheres
         rows = np.repeat(np.arange(ns), np.diff(p["start"]))
         npair = int(p["start"][-1])
-        active = p["hist"][:npair, 7] != 0
+        active = p["act"][:npair]
         return rows[active], p["nbr"][:npair][active], p["out"][:npair][active, :3]
 
     # ------------------------------------------------------------------ checkpoints --
@@ -783,6 +791,9 @@ class Simulation:
             self._q = {k[2:]: z[k].copy() for k in z.files if k.startswith("q_")}
             sc = z["scalars"]
             self.gravity = z["gravity"].copy()
+        for d in (self._p, self._q):
+            if "act" not in d:  # written before the activity flags existed
+                d["act"] = d["hist"][:, 7] != 0.0
         self.time = float(sc[0])
         self.step_count = int(sc[1])
         self._dt = float(sc[2])

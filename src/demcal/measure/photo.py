@@ -10,9 +10,11 @@ automation is not enough):
    Gaussian of 1 px, the one whose Otsu threshold separates best (largest ratio of
    between-class to total variance; Otsu 1979, doi:10.1109/TSMC.1979.4310076) among
    those whose two classes differ by at least :data:`MIN_CONTRAST`.
-4. **Lighting**: a smooth background (a quadratic surface in x, y fitted to the
-   background pixels of a first segmentation) is divided out and Otsu is applied
-   again, which removes uneven lighting and vignetting.
+   Before the choice each channel is divided by its lighting, a quadratic surface in
+   (x, y) fitted robustly to the whole photo (the heap and plate are rejected as
+   outliers), which removes uneven lighting and vignetting.
+4. **Lighting again**: the surface is refitted to the background pixels of this first
+   segmentation only, divided out, and Otsu is applied again.
 5. **Polarity**: the class that fills the top rows of the image is the background, so a
    front-lit heap darker than the wall, a back-lit black silhouette and a light heap on
    a dark cloth are all handled.
@@ -71,7 +73,8 @@ class PhotoMeasurement:
     height, width : heap height and base width, in ``unit``.
     unit : ``"mm"`` with ``mm_per_px``, else ``"px"``.
     base_row : image row of the base line [px].
-    channel, polarity : the channel used and ``"dark"`` or ``"bright"`` heap.
+    channel, polarity : the channel used, and whether the heap lies ``"below"`` or
+        ``"above"`` the threshold in it (a dark or a bright heap).
     fit : the flank fits, in ``unit`` with z up from the base line and x from the
         region's left edge.
     png : the annotated picture, if written.
@@ -174,49 +177,72 @@ def _channels(img: np.ndarray) -> dict[str, np.ndarray]:
             "chroma": chroma}
 
 
-def _background_model(values: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """Quadratic surface in (x, y) fitted to the background pixels (subsampled)."""
+def _background_model(values: np.ndarray, use: np.ndarray | None = None,
+                      step: int = 6, rounds: int = 3) -> np.ndarray:
+    """Smooth lighting: a quadratic surface in (x, y) fitted to ``values`` on a grid of
+    every ``step``-th pixel, where ``use`` is true, refitted ``rounds`` times without
+    the points farther than 2.5 robust sd from it (the heap, the plate, shadows)."""
     rows, cols = values.shape
-    yy, xx = np.mgrid[0:rows:4, 0:cols:4]
-    sel = background[::4, ::4]
-    x, y = xx[sel] / cols - 0.5, yy[sel] / rows - 0.5
-    design = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
-    coef = np.linalg.lstsq(design, values[::4, ::4][sel], rcond=None)[0]
-    gy, gx = np.mgrid[0:rows, 0:cols]
-    gx, gy = gx / cols - 0.5, gy / rows - 0.5
-    return (coef[0] + coef[1] * gx + coef[2] * gy + coef[3] * gx * gx + coef[4] * gx * gy
-            + coef[5] * gy * gy)
+    gy = (np.arange(0, rows, step) / rows - 0.5)[:, None]
+    gx = (np.arange(0, cols, step) / cols - 0.5)[None, :]
+    one = np.ones_like(gy * gx)
+    design = np.stack([one, gx * one, gy * one, (gx * gx) * one, gx * gy, (gy * gy) * one], -1)
+    design = design.reshape(-1, 6)
+    target = values[::step, ::step].ravel()
+    keep = np.ones(target.size, bool) if use is None else use[::step, ::step].ravel().copy()
+    for _ in range(rounds):
+        if keep.sum() < 12:
+            break
+        coef = np.linalg.lstsq(design[keep], target[keep], rcond=None)[0]
+        if use is not None:
+            break
+        resid = target - design @ coef
+        mad = np.median(np.abs(resid - np.median(resid)))
+        keep = np.abs(resid - np.median(resid)) <= 2.5 * 1.4826 * max(mad, 1e-6)
+    gy = (np.arange(rows) / rows - 0.5)[:, None]
+    gx = (np.arange(cols) / cols - 0.5)[None, :]
+    return (coef[0] + coef[1] * gx + coef[3] * gx * gx) + (coef[2] * gy + coef[5] * gy * gy) \
+        + coef[4] * gx * gy
+
+
+def _flatten(values: np.ndarray, use: np.ndarray | None = None):
+    """``values`` divided by their lighting model, and the model's median (the scale
+    of the flattened values); unchanged where the model is not positive."""
+    model = _background_model(values, use)
+    if np.all(model > 1e-3):
+        return values / model, float(np.median(model))
+    return values, 1.0
 
 
 def segment(img: np.ndarray, top_rows: int | None = None):
     """Foreground mask of a heap photo (before choosing the heap piece).
 
-    Returns ``(mask, channel_values, threshold, channel_name, polarity)``; the
-    foreground is ``channel_values < threshold`` for a dark heap and ``>`` for a bright
-    one.
+    Returns ``(mask, channel_values, threshold, channel_name, polarity)``: the
+    foreground is ``channel_values < threshold`` when ``polarity`` is ``"below"`` and
+    ``>`` when ``"above"`` (``channel_values`` is the smoothed, lighting-flattened
+    channel).
     """
     rows = img.shape[0]
     top_rows = top_rows or max(2, rows // 30)
     best = None
     for name, values in _channels(img).items():
         smooth = ndimage.gaussian_filter(values, _SMOOTH_PX)
-        t, eta, contrast = _otsu(smooth[::2, ::2].ravel())
-        score = (contrast >= MIN_CONTRAST, eta)  # a faint channel (chroma of grey) loses
+        flat, scale = _flatten(smooth)
+        t, eta, contrast = _otsu(flat[::2, ::2].ravel())
+        score = (contrast * scale >= MIN_CONTRAST, eta)  # a faint channel (chroma of grey) loses
         if best is None or score > best[3]:
-            best = (name, smooth, t, score)
-    name, values, t, _ = best
-    bright_background = np.mean(values[:top_rows] > t) > 0.5
-    fg = values < t if bright_background else values > t
-    # divide out uneven lighting, estimated on the background, and threshold again
+            best = (name, smooth, t, score, flat)
+    name, smooth, t, _, values = best
+    below = np.mean(values[:top_rows] > t) > 0.5  # the background fills the top rows
+    fg = values < t if below else values > t
+    # lighting again, now fitted to the background class only, and a final threshold
     bg = ~ndimage.binary_dilation(fg, iterations=3)
     if bg.sum() > 100:
-        model = _background_model(values, bg)
-        if np.all(model > 1e-3):
-            values = values / model
-            t = _otsu(values[::2, ::2].ravel())[0]
-            bright_background = np.mean(values[:top_rows] > t) > 0.5
-            fg = values < t if bright_background else values > t
-    return fg, values, t, name, "dark" if bright_background else "bright"
+        values = _flatten(smooth, bg)[0]
+        t = _otsu(values[::2, ::2].ravel())[0]
+        below = np.mean(values[:top_rows] > t) > 0.5
+        fg = values < t if below else values > t
+    return fg, values, t, name, "below" if below else "above"
 
 
 def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float | None = None,

@@ -1,0 +1,53 @@
+"""Angle of repose tests: reproducibility and physics sanity (issue 4, acceptance 2 and 3).
+
+The repose angle must rise with the inter-particle static friction and with the rolling
+friction. The full grid (``slow``) averages seeds at the tiny profile; the fast variant
+compares the two corners of the grid with one seed.
+"""
+
+import numpy as np
+import pytest
+
+from demcal.bench.registry import get_experiment
+
+FUNNEL = get_experiment("repose-funnel")
+
+
+def angle(seed=0, profile="tiny", **overrides):
+    settings = {k.replace("__", "."): v for k, v in overrides.items()}
+    return FUNNEL.run(settings, seed=seed, profile=profile).responses["repose_angle_deg"]
+
+
+def test_same_seed_gives_the_same_angle_to_the_last_digit(tmp_path):
+    a = FUNNEL.run({}, seed=3, profile="tiny", out_dir=tmp_path / "a")
+    b = FUNNEL.run({}, seed=3, profile="tiny", out_dir=tmp_path / "b")
+    assert a.responses == b.responses
+    assert a.steps == b.steps
+    assert (tmp_path / "a" / "heap.png").stat().st_size > 10_000
+    assert 0.0 < a.responses["repose_angle_deg"] < 60.0
+    assert set(a.spread) == {"repose_angle_deg"}
+
+
+def test_corners_of_the_friction_grid():
+    low = angle(particle__static_friction=0.1, particle__rolling_friction=0.02)
+    high = angle(particle__static_friction=0.6, particle__rolling_friction=0.4)
+    assert high > low + 3.0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key, low, high", [
+    ("particle.static_friction", 0.15, 0.6),
+    ("particle.rolling_friction", 0.02, 0.4),
+])
+def test_repose_angle_rises_with_friction(key, low, high):
+    seeds = (1, 2, 3)
+    a_low = np.mean([FUNNEL.run({key: low}, seed=s, profile="tiny").responses["repose_angle_deg"] for s in seeds])
+    a_high = np.mean([FUNNEL.run({key: high}, seed=s, profile="tiny").responses["repose_angle_deg"] for s in seeds])
+    assert a_high > a_low + 2.0
+
+
+@pytest.mark.slow
+def test_lifted_cylinder_builds_a_heap(tmp_path):
+    r = get_experiment("repose-cylinder").run({}, seed=0, profile="tiny", out_dir=tmp_path)
+    assert 10.0 < r.responses["repose_angle_deg"] < 60.0
+    assert (tmp_path / "heap.png").exists()

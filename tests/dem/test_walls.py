@@ -1,0 +1,67 @@
+"""Walls: reported forces and prescribed motion.
+
+* A particle at rest on a floor pushes on it with its weight m g (statics).
+* A floor translating upwards at constant speed u carries a resting particle along:
+  after the transient its velocity is u and the floor force is again m g.
+* A plate rotating about a horizontal hinge moves its surface at omega x r; a particle
+  resting on it far from the hinge is carried at that speed.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from demcal.dem import Simulation
+from demcal.geometry import Plane, Rect, Rotation, Translation, WallSet
+from demcal.particles.materials import Interaction
+
+from dem_helpers import RADIUS, SOFT, SOFT_WALL, sphere_mass
+
+G = 9.81
+
+
+def test_resting_sphere_loads_floor_with_its_weight(backend):
+    walls = WallSet([Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="floor")])
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3), walls=walls,
+                     backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, RADIUS]])
+    sim.run(duration=0.1)
+    force, torque = sim.wall_forces()["floor"]
+    m = sim.state.masses[0]
+    assert force == pytest.approx([0, 0, -m * G], abs=1e-6 * m * G)
+
+
+def test_translating_floor_carries_particle(backend):
+    u = 0.05
+    walls = WallSet([Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="lift",
+                           motion=Translation(velocity=(0, 0, u), start=0.03))])
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3), walls=walls,
+                     backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, RADIUS]])
+    sim.run(duration=0.15)
+    assert sim.state.velocities[0, 2] == pytest.approx(u, rel=0.01)
+    z_floor = u * (sim.time - 0.03)
+    assert sim.state.positions[0, 2] - z_floor == pytest.approx(RADIUS, rel=0.01)
+    force, _ = sim.wall_forces()["lift"]
+    assert -force[2] == pytest.approx(sim.state.masses[0] * G, rel=0.01)
+
+
+def test_rotating_plate_moves_particle_with_its_surface(backend):
+    """A horizontal plate hinged on the y axis tilts at w; a particle resting on it at
+    x = L rides up at w L (no slip while tan(w t) << mu_s)."""
+    w = 0.2
+    length = 0.05
+    plate = Rect(centre=(length, 0, 0), u=(2 * length, 0, 0), v=(0, 0.02, 0), material=1,
+                 name="plate",
+                 motion=Rotation(point=(0, 0, 0), axis=(0, -1, 0), angular_speed=w,
+                                 start=0.03))
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.9,
+                                                    rolling_friction=0.5),
+                     walls=WallSet([plate]), backend=backend)
+    sim.add_particles(RADIUS, [[length, 0, RADIUS]])
+    sim.run(duration=0.1)
+    v = sim.state.velocities[0]
+    speed = w * math.hypot(length, RADIUS)
+    assert np.linalg.norm(v) == pytest.approx(speed, rel=0.03)
+    assert v[2] > 0
