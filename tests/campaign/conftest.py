@@ -104,3 +104,20 @@ def campaign_file(tmp_path):
         return path
 
     return write
+
+
+def local_and_dask_results(campaign, root: Path):
+    """Run ``campaign`` through a 2-process local pool and a 2-worker Dask
+    ``LocalCluster`` into two work folders; return both design result tables."""
+    from demcal.campaign.executors import DaskExecutor
+    from demcal.campaign.runner import design_results, run_campaign
+
+    local = campaign.with_workdir(root / "local")
+    dask = campaign.with_workdir(root / "dask")
+    run_campaign(local, workers=2, progress=False)
+    executor = DaskExecutor(None, workers=2, plugins=campaign.plugins)
+    try:
+        run_campaign(dask, progress=False, executor=executor)
+    finally:
+        executor.close()
+    return design_results(local), design_results(dask)

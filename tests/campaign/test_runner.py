@@ -16,6 +16,8 @@ from demcal.campaign.config import load_campaign
 from demcal.campaign.runner import design_results, plan_design, run_campaign
 from demcal.campaign.store import Store
 
+from conftest import local_and_dask_results
+
 
 @pytest.fixture
 def markers(tmp_path, monkeypatch):
@@ -136,17 +138,7 @@ def test_two_runners_on_one_store_never_run_a_point_twice(campaign_file, markers
 def test_local_pool_and_dask_give_identical_results(campaign_file, tmp_path):
     """Issue 5, acceptance 2 (the test double; the real tiny profile is in the slow tests)."""
     pytest.importorskip("distributed")
-    from demcal.campaign.executors import DaskExecutor
-
-    campaign = load_campaign(campaign_file())
-    local = campaign.with_workdir(tmp_path / "local")
-    dask = campaign.with_workdir(tmp_path / "dask")
-    run_campaign(local, workers=2, progress=False)
-    executor = DaskExecutor(None, workers=2, plugins=campaign.plugins)
-    try:
-        assert run_campaign(dask, progress=False, executor=executor).done == 29
-    finally:
-        executor.close()
-    a, b = design_results(local), design_results(dask)
+    a, b = local_and_dask_results(load_campaign(campaign_file()), tmp_path)
+    assert list(a["status"]) == list(b["status"]) == ["done"] * 29
     assert list(a["key"]) == list(b["key"])
     assert list(a["repose_angle_deg"]) == list(b["repose_angle_deg"])  # bit for bit

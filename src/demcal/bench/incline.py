@@ -35,7 +35,9 @@ The simulation
   the onset ``t_c`` is found by fitting a straight line to ``sqrt(v)`` against ``t`` over
   the samples between 10 % and 100 % of the detection speed and extrapolating it to zero;
   ``sliding_angle_deg`` is the tilt at ``t_c`` (the tilt at detection is also reported,
-  as ``sliding_angle_detected_deg``).
+  as ``sliding_angle_detected_deg``). If the material is already moving when the tilt
+  begins (a bed whose own angle of repose is below the start angle collapses rather than
+  slides), ``slid_at_start`` is 1 and the angle is only an upper bound.
 * **Lab link.** ``equivalent_height_mm = L sin(theta)`` with ``L = incline.arm_length``
   (300 mm): the ruler reading the lab would have taken.
 
@@ -238,7 +240,13 @@ class Incline(C.BenchExperiment):
             "sliding_angle_deg": theta_c,
             "sliding_angle_detected_deg": theta_d,
             "equivalent_height_mm": L * 1e3 * math.sin(math.radians(theta_c)),
+            # 1 when the material was already moving as the tilt began: the angle is then
+            # only an upper bound; lower incline.start_angle
+            "slid_at_start": float(theta_c - start < 0.5),
         }
+        if theta_c - start < 0.5:
+            progress(f"warning: the material moved as soon as tilting began at {start:g} deg; "
+                     "the angle is an upper bound -- lower incline.start_angle")
         spread = {"sliding_angle_deg": math.degrees(rate) * CHECK}
         artifacts = {"vtk": vtkw.path} if vtkw.path else {}
         if out_dir is not None:

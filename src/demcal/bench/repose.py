@@ -26,7 +26,8 @@ checked against the particle count: a heap of ``particles.count`` particles at 2
 fit on the plate and one at 50 deg must stay below the outlet; the outlet must be at
 least three of the largest particles wide.
 
-Profiles: ``tiny`` 250 particles, ``quick`` 1000, ``paper`` 20 000 -- the paper's 500 g
+Profiles: ``tiny`` 150 particles (outlet 20 mm high at scale 1), ``quick`` 500 (30 mm), ``paper``
+20 000 (100 mm) -- the paper's 500 g
 sample with the platform scaled 4x in every direction (500 g x 4^3 = 32 kg of particles
 of 1.62 g on average).
 

@@ -150,18 +150,11 @@ def _round(value: float, digits: int = PARAMETER_DIGITS) -> float:
     return float(f"{value:.{digits}g}")
 
 
-def doe_factors(campaign: Campaign):
-    """The campaign's factors as :class:`demcal.doe.factors.Factor` (name, levels, unit)."""
-    from demcal.doe.factors import Factor
-
-    return [Factor(f.name, f.low, f.high, f.unit, f.label) for f in campaign.factors]
-
-
 def fit_models(campaign: Campaign, table: pd.DataFrame):
     """Full and (if asked) reduced model of every response."""
     from demcal.rsm import backward_elimination, fit_response_surface
 
-    factors = doe_factors(campaign)
+    factors = list(campaign.factors)
     names = campaign.factor_names
     full, models, removed, notes = {}, {}, {}, []
     for response in campaign.response_names:

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
+from demcal.doe.factors import Factor as CodedFactor
 from demcal.doe.factors import default_names
 from demcal.errors import ConfigError
 
@@ -65,29 +66,11 @@ _START_METHODS = ("spawn", "forkserver")
 
 
 @dataclass(frozen=True)
-class Factor:
-    """One varied contact parameter: a setting key with its low and high level."""
+class Factor(CodedFactor):
+    """A varied contact parameter: a :class:`demcal.doe.factors.Factor` (name, low and
+    high level, units, description; coded <-> actual) bound to an experiment setting."""
 
-    name: str  #: short symbol used in the model, e.g. ``A``
-    parameter: str  #: the experiment setting it drives, e.g. ``particle.restitution``
-    low: float  #: actual value at coded level -1
-    high: float  #: actual value at coded level +1
-    label: str = ""
-    unit: str = "-"
-
-    @property
-    def center(self) -> float:
-        return 0.5 * (self.low + self.high)
-
-    @property
-    def half_range(self) -> float:
-        return 0.5 * (self.high - self.low)
-
-    def to_actual(self, coded: float) -> float:
-        return self.center + coded * self.half_range
-
-    def to_coded(self, actual: float) -> float:
-        return (actual - self.center) / self.half_range
+    parameter: str = ""  #: the experiment setting it drives, e.g. ``particle.restitution``
 
 
 @dataclass(frozen=True)
@@ -472,8 +455,8 @@ class _Loader:
                                      f"factor '{parameter}' has {level} {value:g}, but a coefficient of restitution must lie in (0, 1]")
                 self.check_setting(experiment, table, profile, parameter, value, where + (level,))
             unit = data.get("unit", table[parameter].unit)
-            factors.append(Factor(name=name, parameter=parameter, low=low, high=high,
-                                  label=str(data.get("label", parameter)), unit=str(unit)))
+            factors.append(Factor(name=name, low=low, high=high, units=str(unit),
+                                  description=str(data.get("label", parameter)), parameter=parameter))
         return tuple(factors)
 
     def design(self, k: int) -> DesignConfig:

@@ -178,7 +178,7 @@ def _channels(img: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def _background_model(values: np.ndarray, use: np.ndarray | None = None,
-                      step: int = 6, rounds: int = 3) -> np.ndarray:
+                      step: int = 10, rounds: int = 3) -> np.ndarray:
     """Smooth lighting: a quadratic surface in (x, y) fitted to ``values`` on a grid of
     every ``step``-th pixel, where ``use`` is true, refitted ``rounds`` times without
     the points farther than 2.5 robust sd from it (the heap, the plate, shadows)."""
@@ -217,6 +217,7 @@ def _flatten(values: np.ndarray, use: np.ndarray | None = None):
 def segment(img: np.ndarray, top_rows: int | None = None):
     """Foreground mask of a heap photo (before choosing the heap piece).
 
+    Raises :class:`DataError` when no channel has :data:`MIN_CONTRAST`.
     Returns ``(mask, channel_values, threshold, channel_name, polarity)``: the
     foreground is ``channel_values < threshold`` when ``polarity`` is ``"below"`` and
     ``>`` when ``"above"`` (``channel_values`` is the smoothed, lighting-flattened
@@ -227,12 +228,17 @@ def segment(img: np.ndarray, top_rows: int | None = None):
     best = None
     for name, values in _channels(img).items():
         smooth = ndimage.gaussian_filter(values, _SMOOTH_PX)
-        flat, scale = _flatten(smooth)
-        t, eta, contrast = _otsu(flat[::2, ::2].ravel())
+        flat, scale = _flatten(smooth[::2, ::2])  # the choice is made at half resolution
+        t, eta, contrast = _otsu(flat.ravel())
         score = (contrast * scale >= MIN_CONTRAST, eta)  # a faint channel (chroma of grey) loses
-        if best is None or score > best[3]:
-            best = (name, smooth, t, score, flat)
-    name, smooth, t, _, values = best
+        if best is None or score > best[2]:
+            best = (name, smooth, score, contrast * scale)
+    name, smooth, _, contrast = best
+    if contrast < MIN_CONTRAST:
+        raise DataError(f"nothing stands out from the background (contrast {contrast:.3f} "
+                        f"< {MIN_CONTRAST} in every channel)")
+    values = _flatten(smooth)[0]
+    t = _otsu(values[::2, ::2].ravel())[0]
     below = np.mean(values[:top_rows] > t) > 0.5  # the background fills the top rows
     fg = values < t if below else values > t
     # lighting again, now fitted to the background class only, and a final threshold
@@ -278,7 +284,10 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
     if base_y is not None and not y0 < base_y <= y1:
         raise DataError(f"base line row {base_y} is outside the photo or region of interest "
                         f"(rows {y0}..{y1}) of '{name}'.")
-    fg, values, t, channel, polarity = segment(img)
+    try:
+        fg, values, t, channel, polarity = segment(img)
+    except DataError as exc:
+        raise DataError(f"no heap found in photo '{name}': {exc}.") from None
     base_local = None if base_y is None else float(base_y) - y0
     if base_local is not None:
         fg[int(np.ceil(base_local)) + 1:] = False
@@ -372,29 +381,39 @@ def _check_roi(roi, shape, name):
 
 
 def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path) -> None:
-    """Write the photo with the edge points, the fitted lines and the angles."""
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
+    """Write the photo with the base line (yellow), the region of interest (yellow box),
+    the fitted edge points (blue left, red right; rejected ones orange) and the fitted
+    lines from the base to the apex height. Drawn straight into the pixels, which is
+    fast; the angles are in the table and the JSON."""
+    from skimage import io
+    from skimage.draw import line, rectangle_perimeter
 
-    from demcal.measure.plotting import draw_flanks
-
-    rows, cols = full.shape[:2]
-    fig = Figure(figsize=(cols / 100, rows / 100), dpi=100)
-    ax = fig.add_axes((0, 0, 1, 1))
-    ax.imshow(full, interpolation="nearest")
+    img = (np.clip(full, 0, 1) * 255).astype(np.uint8).copy()
+    rows, cols = img.shape[:2]
     x0, y0, x1, y1 = roi
+    yellow, orange = (255, 220, 0), (255, 140, 0)
     if (x0, y0, x1, y1) != (0, 0, cols, rows):
-        ax.add_patch(Rectangle((x0 - 0.5, y0 - 0.5), x1 - x0, y1 - y0, fill=False, ec="yellow", lw=1))
-    ax.axhline(m.base_row, color="yellow", lw=0.8, ls="--")
-    draw_flanks(ax, m.fit, scale=1.0 / scale, z_sign=-1.0, z_origin=m.base_row, x_origin=x0)
-    ax.text(0.01, 0.99, f"{Path(m.photo).name}: {m.angle_deg:.2f}° "
-            f"(left {m.left_deg:.2f}°, right {m.right_deg:.2f}°)", transform=ax.transAxes,
-            va="top", fontsize=10, color="black", bbox={"fc": "white", "alpha": 0.7, "lw": 0})
-    ax.set_xlim(-0.5, cols - 0.5)
-    ax.set_ylim(rows - 0.5, -0.5)
-    ax.set_axis_off()
+        rr, cc = rectangle_perimeter((y0, x0), (y1 - 1, x1 - 1), shape=img.shape[:2])
+        img[rr, cc] = yellow
+    b = int(round(m.base_row))
+    if 0 <= b < rows:
+        img[b, ::4] = yellow
+    for flank, colour in ((m.fit.left, (40, 110, 255)), (m.fit.right, (255, 40, 40))):
+        px = np.round(x0 + flank.x / scale).astype(int)
+        pz = np.round(m.base_row - flank.z / scale).astype(int)
+        ok = (px >= 0) & (px < cols) & (pz >= 0) & (pz < rows)
+        img[pz[ok & flank.inlier], px[ok & flank.inlier]] = colour
+        img[pz[ok & ~flank.inlier], px[ok & ~flank.inlier]] = orange
+        zs = np.array([0.0, m.fit.height])
+        xs = (zs - flank.intercept) / flank.slope if flank.slope else flank.x[[0, -1]]
+        c = np.round(x0 + xs / scale).astype(int)
+        r = np.round(m.base_row - zs / scale).astype(int)
+        for dr in (-1, 0, 1):
+            rr, cc = line(r[0] + dr, c[0], r[1] + dr, c[1])
+            ok = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
+            img[rr[ok], cc[ok]] = colour
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    io.imsave(str(path), img, check_contrast=False)
 
 
 @dataclass(frozen=True)

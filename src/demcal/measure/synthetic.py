@@ -132,7 +132,7 @@ def synthetic_photo(angle_deg: float, seed: int = 0, size=(600, 800), half_width
     gradient : uneven lighting: brightness goes from ``1 - gradient`` on the left to
         ``1 + gradient`` on the right, with a vignette.
     shadow : front light from the left casts the heap's shadow on the wall to its right.
-    tilt_deg : camera roll; the whole photo is rotated by this angle.
+    tilt_deg : camera roll; the whole photo is rotated counter-clockwise by this angle.
     texture : graph-paper wall / cloth weave and grainy soil instead of flat colours.
     """
     if lighting not in ("front", "back", "bright"):

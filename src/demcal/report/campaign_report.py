@@ -91,8 +91,8 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
 
     report.section("Factors and levels", 3)
     levels = pd.DataFrame(
-        [{"factor": f.name, "parameter": f.parameter, "label": f.label, "unit": f.unit,
-          "-1": f.low, "0": f.center, "+1": f.high} for f in c.factors]).set_index("factor")
+        [{"factor": f.name, "parameter": f.parameter, "label": f.description, "units": f.units,
+          "-1": f.low, "0": f.centre, "+1": f.high} for f in c.factors]).set_index("factor")
     report.table(levels, n("factors"), caption="Factors and levels (paper Tables 3 and 7)")
 
     report.section("Design and results", 3)

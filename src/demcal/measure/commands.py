@@ -1,0 +1,109 @@
+"""``demcal measure repose|incline``: lab measurements from the command line."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from demcal.errors import ConfigError, DataError
+
+
+def register(subparsers) -> None:
+    measure = subparsers.add_parser(
+        "measure", help="angle of repose from heap photos; sliding angle from incline readings",
+        description="Lab measurements: angle of repose from heap photos, sliding angle from "
+                    "inclined-plane readings.")
+    sub = measure.add_subparsers(dest="measure_command", metavar="WHAT")
+
+    repose = sub.add_parser(
+        "repose", help="angle of repose from heap photos",
+        description="Segment each heap photo, trace the heap's outline, fit both flanks by "
+                    "robust least squares and report left, right and mean angle; many "
+                    "photos give mean +- sd with outliers flagged. A bad photo is reported "
+                    "and the others are measured.")
+    repose.add_argument("photos", nargs="+", metavar="PHOTO")
+    repose.add_argument("--roi", help="region of interest x0,y0,x1,y1 [px]")
+    repose.add_argument("--base-y", type=float, help="row of the base line [px]")
+    repose.add_argument("--mm-per-px", type=float, help="scale for heights [mm/px]")
+    repose.add_argument("--band", default="0.1,0.9",
+                        help="fit each flank between these fractions of the heap height "
+                             "(default 0.1,0.9)")
+    repose.add_argument("--out", help="folder for annotated PNGs and table.csv")
+    repose.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    repose.add_argument("--json", action="store_true", help="print JSON")
+    repose.set_defaults(func=_repose)
+
+    incline = sub.add_parser(
+        "incline", help="sliding angle theta = arcsin(H/L) from ruler readings",
+        description="theta = arcsin(H / L) for each reading, and mean +- sd "
+                    "(over group means with --repeats).")
+    incline.add_argument("--H", dest="H", type=float, nargs="+", required=True, metavar="MM",
+                         help="heights of the container's starting point [mm]")
+    incline.add_argument("--L", dest="L", type=float, default=300.0, metavar="MM",
+                         help="distance from that point to the spindle [mm] (default 300)")
+    incline.add_argument("--repeats", type=int, help="readings per group, in order")
+    incline.add_argument("--json", action="store_true", help="print JSON")
+    incline.set_defaults(func=_incline)
+    measure.set_defaults(func=lambda args: (measure.print_help(), 1)[1])
+
+
+def _floats(text: str, count: int, what: str) -> list[float]:
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != count:
+        raise ConfigError(f"{what} must be {count} comma-separated numbers, got '{text}'.")
+    return values
+
+
+def _repose(args) -> int:
+    from pathlib import Path
+
+    from demcal.measure.photo import measure_photos
+
+    roi = _floats(args.roi, 4, "--roi") if args.roi else None
+    band = tuple(_floats(args.band, 2, "--band"))
+    if args.mm_per_px is not None and args.mm_per_px <= 0:
+        raise ConfigError(f"--mm-per-px must be positive, got {args.mm_per_px}.")
+    batch = measure_photos(args.photos, roi=roi, base_y=args.base_y, mm_per_px=args.mm_per_px,
+                           band=band, out_dir=args.out, workers=max(1, args.workers))
+    if args.out:
+        Path(args.out).mkdir(parents=True, exist_ok=True)
+        batch.table.to_csv(Path(args.out) / "table.csv", index=False)
+    if len(args.photos) == 1 and batch.failures:
+        raise DataError(batch.failures[0][1])
+    if args.json:
+        print(json.dumps(batch.to_dict(), indent=2))
+    else:
+        for _, row in batch.table.iterrows():
+            if row["error"] is None:
+                flag = "  OUTLIER" if row["outlier"] else ""
+                print(f"{row['photo']}: {row['angle_deg']:.2f} deg (left {row['left_deg']:.2f}, "
+                      f"right {row['right_deg']:.2f}, R2 {row['r2']:.3f}){flag}")
+            else:
+                print(f"{row['photo']}: not measured: {row['error']}")
+        s = batch.summary
+        if s is not None and s.n > 1:
+            print(f"angle of repose {s.mean:.2f} +- {s.sd:.2f} deg over {s.n} photos "
+                  f"(95 % CI {s.ci_low:.2f}..{s.ci_high:.2f})")
+    for photo, sentence in batch.failures:
+        print(f"demcal: warning: {sentence}", file=sys.stderr)
+    if batch.summary is None:
+        raise DataError(f"none of the {len(args.photos)} photos could be measured.")
+    return 0
+
+
+def _incline(args) -> int:
+    from demcal.measure.incline import measure_incline
+
+    m = measure_incline(args.H, args.L, args.repeats)
+    if args.json:
+        print(json.dumps(m.to_dict(), indent=2))
+        return 0
+    for i, (h, a) in enumerate(zip(args.H, m.angles_deg), 1):
+        print(f"reading {i}: H = {h:g} mm -> theta = {a:.2f} deg")
+    over = "group means" if m.group_means_deg is not None else "readings"
+    sd = f" +- {m.sd_deg:.2f}" if m.n > 1 else ""
+    print(f"sliding angle {m.mean_deg:.2f}{sd} deg over {m.n} {over} (L = {args.L:g} mm)")
+    return 0
