@@ -18,7 +18,7 @@ automation is not enough):
 5. **Polarity**: the class that fills the top rows of the image is the background, so a
    front-lit heap darker than the wall, a back-lit black silhouette and a light heap on
    a dark cloth are all handled.
-6. **Clean-up**: a morphological opening (disk of 2 px) removes noise and specks; the
+6. **Clean-up**: a morphological opening (5 x 5 px square) removes noise and specks; the
    largest connected piece that reaches the base line is the heap (with its plate).
 7. **Outline**: the topmost heap pixel of every column, refined to a fraction of a
    pixel where the smoothed channel crosses the threshold.
@@ -171,10 +171,10 @@ def _otsu(values: np.ndarray) -> tuple[float, float, float]:
 
 
 def _channels(img: np.ndarray) -> dict[str, np.ndarray]:
-    lum = img @ np.array([0.2125, 0.7154, 0.0721])
-    chroma = img.max(axis=2) - img.min(axis=2)
-    return {"luminance": lum, "red": img[..., 0], "green": img[..., 1], "blue": img[..., 2],
-            "chroma": chroma}
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    lum = 0.2125 * r + 0.7154 * g + 0.0721 * b
+    chroma = np.maximum(np.maximum(r, g), b) - np.minimum(np.minimum(r, g), b)
+    return {"luminance": lum, "red": r, "green": g, "blue": b, "chroma": chroma}
 
 
 def _background_model(values: np.ndarray, use: np.ndarray | None = None,
@@ -226,14 +226,17 @@ def segment(img: np.ndarray, top_rows: int | None = None):
     rows = img.shape[0]
     top_rows = top_rows or max(2, rows // 30)
     best = None
-    for name, values in _channels(img).items():
-        smooth = ndimage.gaussian_filter(values, _SMOOTH_PX)
-        flat, scale = _flatten(smooth[::2, ::2])  # the choice is made at half resolution
+    channels = _channels(img)
+    for name, values in channels.items():
+        # the choice is made at half resolution
+        small = ndimage.gaussian_filter(values[::2, ::2], _SMOOTH_PX)
+        flat, scale = _flatten(small)
         t, eta, contrast = _otsu(flat.ravel())
         score = (contrast * scale >= MIN_CONTRAST, eta)  # a faint channel (chroma of grey) loses
-        if best is None or score > best[2]:
-            best = (name, smooth, score, contrast * scale)
-    name, smooth, _, contrast = best
+        if best is None or score > best[1]:
+            best = (name, score, contrast * scale)
+    name, _, contrast = best
+    smooth = ndimage.gaussian_filter(channels[name], _SMOOTH_PX)
     if contrast < MIN_CONTRAST:
         raise DataError(f"nothing stands out from the background (contrast {contrast:.3f} "
                         f"< {MIN_CONTRAST} in every channel)")
@@ -242,7 +245,7 @@ def segment(img: np.ndarray, top_rows: int | None = None):
     below = np.mean(values[:top_rows] > t) > 0.5  # the background fills the top rows
     fg = values < t if below else values > t
     # lighting again, now fitted to the background class only, and a final threshold
-    bg = ~ndimage.binary_dilation(fg, iterations=3)
+    bg = ndimage.maximum_filter(fg.view(np.uint8), size=7) == 0
     if bg.sum() > 100:
         values = _flatten(smooth, bg)[0]
         t = _otsu(values[::2, ::2].ravel())[0]
@@ -291,9 +294,8 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
     base_local = None if base_y is None else float(base_y) - y0
     if base_local is not None:
         fg[int(np.ceil(base_local)) + 1:] = False
-    from skimage.morphology import disk
-
-    fg = ndimage.binary_opening(fg, structure=disk(_OPEN_RADIUS))
+    size = 2 * _OPEN_RADIUS + 1  # opening with a square: separable, fast
+    fg = ndimage.maximum_filter(ndimage.minimum_filter(fg.view(np.uint8), size), size).astype(bool)
     labels, n = ndimage.label(fg, structure=np.ones((3, 3)))
     if n == 0:
         raise DataError(f"no heap found in photo '{name}': nothing stands out from the background.")
@@ -385,7 +387,7 @@ def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path) -
     the fitted edge points (blue left, red right; rejected ones orange) and the fitted
     lines from the base to the apex height. Drawn straight into the pixels, which is
     fast; the angles are in the table and the JSON."""
-    from skimage import io
+    from PIL import Image
     from skimage.draw import line, rectangle_perimeter
 
     img = (np.clip(full, 0, 1) * 255).astype(np.uint8).copy()
@@ -413,7 +415,7 @@ def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path) -
             ok = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
             img[rr[ok], cc[ok]] = colour
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    io.imsave(str(path), img, check_contrast=False)
+    Image.fromarray(img).save(path, format="PNG", compress_level=1)  # level 6 costs ~1 s
 
 
 @dataclass(frozen=True)
