@@ -18,7 +18,7 @@ import numpy as np
 
 from demcal.errors import ConfigError, DataError
 from demcal.geometry import kernels as K
-from demcal.geometry.motion import Motion, as_motion
+from demcal.geometry.motion import Motion, _unit, _vec3, as_motion
 
 __all__ = [
     "Wall",
@@ -32,21 +32,6 @@ __all__ = [
     "TriangleMesh",
     "transform_rows",
 ]
-
-
-def _vec3(value, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ConfigError(f"{name} must be three finite numbers, got {value!r}.")
-    return arr
-
-
-def _unit(value, name: str) -> np.ndarray:
-    arr = _vec3(value, name)
-    norm = float(np.linalg.norm(arr))
-    if norm == 0.0:
-        raise ConfigError(f"{name} must be a non-zero direction vector, got {value!r}.")
-    return arr / norm
 
 
 def _positive(value, name: str, allow_zero: bool = False) -> float:
