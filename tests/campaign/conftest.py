@@ -17,6 +17,21 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
+#: The paper's repose factors (Table 3): name, setting, level -1, level +1.
+FACTORS = (
+    ("A", "particle.restitution", 0.5, 0.7),
+    ("B", "particle.static_friction", 0.3, 0.5),
+    ("C", "particle.rolling_friction", 0.1, 0.3),
+    ("D", "particle.damping_factor", 0.0, 0.2),
+)
+
+
+def factor_tables(names: str) -> str:
+    """The campaign-file ``[[factors]]`` tables of the named :data:`FACTORS`."""
+    return "".join(f'[[factors]]\nname = "{n}"\nparameter = "{p}"\nlow = {lo}\nhigh = {hi}\n\n'
+                   for n, p, lo, hi in FACTORS if n in names)
+
+
 #: A complete campaign on the test double: 4 factors, Box-Behnken with 5 centre points.
 CAMPAIGN = """\
 [campaign]
@@ -30,30 +45,7 @@ plugins = ["campaign_testbench"]
 [experiment.settings]
 "test.sleep_s" = {sleep}
 
-[[factors]]
-name = "A"
-parameter = "particle.restitution"
-low = 0.5
-high = 0.7
-
-[[factors]]
-name = "B"
-parameter = "particle.static_friction"
-low = 0.3
-high = 0.5
-
-[[factors]]
-name = "C"
-parameter = "particle.rolling_friction"
-low = 0.1
-high = 0.3
-
-[[factors]]
-name = "D"
-parameter = "particle.damping_factor"
-low = 0.0
-high = 0.2
-
+""" + factor_tables("ABCD") + """\
 [design]
 type = "box-behnken"
 center = 5

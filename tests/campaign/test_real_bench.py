@@ -11,7 +11,7 @@ import pytest
 
 from demcal.campaign.config import parse_campaign
 
-from conftest import local_and_dask_results
+from conftest import factor_tables, local_and_dask_results
 
 REAL = """\
 [campaign]
@@ -21,18 +21,7 @@ name = "real tiny"
 test = "repose-funnel"
 profile = "tiny"
 
-[[factors]]
-name = "B"
-parameter = "particle.static_friction"
-low = 0.3
-high = 0.5
-
-[[factors]]
-name = "C"
-parameter = "particle.rolling_friction"
-low = 0.1
-high = 0.3
-
+""" + factor_tables("BC") + """\
 [design]
 type = "full-factorial"
 

@@ -69,21 +69,18 @@ def test_box_behnken_k3_matches_paper_table8_rows():
     assert np.array_equal(d, DATA8[["E", "F", "G"]].to_numpy(dtype=float))
 
 
-def test_box_behnken_k6_published_rows():
-    published = _expand([
+#: Box & Behnken (1960) generator rows for k = 6 (blocks of three factors) and k = 7
+#: (balanced incomplete blocks).
+PUBLISHED_BBD = {
+    6: [
         "±1 ±1 0 ±1 0 0",
         "0 ±1 ±1 0 ±1 0",
         "0 0 ±1 ±1 0 ±1",
         "±1 0 0 ±1 ±1 0",
         "0 ±1 0 0 ±1 ±1",
         "±1 0 ±1 0 0 ±1",
-    ])
-    d = box_behnken(6, center=0)
-    assert sorted(map(tuple, d)) == sorted(published)
-
-
-def test_box_behnken_k7_published_rows():
-    published = _expand([
+    ],
+    7: [
         "0 0 0 ±1 ±1 ±1 0",
         "±1 0 0 0 0 ±1 ±1",
         "0 ±1 0 0 ±1 0 ±1",
@@ -91,11 +88,19 @@ def test_box_behnken_k7_published_rows():
         "0 0 ±1 ±1 0 0 ±1",
         "±1 0 ±1 0 ±1 0 0",
         "0 ±1 ±1 0 0 ±1 0",
-    ])
-    d = box_behnken(7, center=0)
-    assert sorted(map(tuple, d)) == sorted(published)
-    # balanced incomplete blocks: every pair of factors varied together in 8 runs
-    nz = d != 0
+    ],
+}
+
+
+@pytest.mark.parametrize("k", sorted(PUBLISHED_BBD))
+def test_box_behnken_k6_k7_published_rows(k):
+    d = box_behnken(k, center=0)
+    assert sorted(map(tuple, d)) == sorted(_expand(PUBLISHED_BBD[k]))
+
+
+def test_box_behnken_k7_balanced_incomplete_blocks():
+    # every pair of factors varied together in 8 runs
+    nz = box_behnken(7, center=0) != 0
     pair_counts = {(i, j): int(np.sum(nz[:, i] & nz[:, j])) for i, j in itertools.combinations(range(7), 2)}
     assert set(pair_counts.values()) == {8}
 

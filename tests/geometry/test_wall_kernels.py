@@ -43,6 +43,21 @@ def _samples_revolution(c, a, radius_of_h, length, n_h=600, n_phi=720):
     return (c + H[..., None] * a + R[..., None] * (np.cos(P)[..., None] * e1 + np.sin(P)[..., None] * e2)).reshape(-1, 3)
 
 
+def _around_axis(c, a, loc):
+    """Points at coordinates ``loc`` (e1, e2, along a) about the axis through ``c``."""
+    e1, e2 = _frame(a)
+    return c + loc[:, :1] * e1 + loc[:, 1:2] * e2 + loc[:, 2:] * a
+
+
+def _nearest_axial(kind, p, pts, c, a):
+    """Distances of ``pts`` and the axial coordinate and axis distance of each nearest
+    point ``q = x - d n`` about the axis through ``c`` along ``a``."""
+    d, n = _query(kind, p, pts)
+    q = pts - d[:, None] * n
+    h = (q - c) @ a
+    return d, n, h, np.linalg.norm(q - c - h[:, None] * a, axis=1)
+
+
 def _min_sample_distance(samples, pts):
     # duplicates (a disk's centre, a cone's apex) make the k-d tree build crawl
     return cKDTree(np.unique(samples, axis=0)).query(pts)[0]
@@ -83,10 +98,7 @@ def test_disk_and_annulus_random_points():
         wall = Disk(centre=c, normal=a, radius=0.8, inner_radius=inner)
         kind, p = _row(wall)
         pts = c + rng.uniform(-1.5, 1.5, (300, 3))
-        d, n = _query(kind, p, pts)
-        q = pts - d[:, None] * n
-        h = (q - c) @ a
-        rho = np.linalg.norm(q - c - h[:, None] * a, axis=1)
+        d, n, h, rho = _nearest_axial(kind, p, pts, c, a)
         on = (np.abs(h) < 1e-12) & (rho <= 0.8 + 1e-12) & (rho >= inner - 1e-12)
         e1, e2 = _frame(a)
         rr, pp = np.meshgrid(np.linspace(inner, 0.8, 400), np.linspace(0, 2 * math.pi, 1440, endpoint=False))
@@ -118,14 +130,9 @@ def test_cylinder_random_points_both_sides():
     a = _random_unit(rng)
     wall = Cylinder(base=c, axis=a, radius=0.5, length=1.2)
     kind, p = _row(wall)
-    e1, e2 = _frame(a)
     # points inside, outside, beyond both ends
-    loc = rng.uniform([-0.9, -0.9, -0.6], [0.9, 0.9, 1.8], (400, 3))
-    pts = c + loc[:, :1] * e1 + loc[:, 1:2] * e2 + loc[:, 2:] * a
-    d, n = _query(kind, p, pts)
-    q = pts - d[:, None] * n
-    h = (q - c) @ a
-    rho = np.linalg.norm(q - c - h[:, None] * a, axis=1)
+    pts = _around_axis(c, a, rng.uniform([-0.9, -0.9, -0.6], [0.9, 0.9, 1.8], (400, 3)))
+    d, _, h, rho = _nearest_axial(kind, p, pts, c, a)
     on = (np.abs(rho - 0.5) < 1e-12) & (h >= -1e-12) & (h <= 1.2 + 1e-12)
     samples = _samples_revolution(c, a, lambda H: np.full_like(H, 0.5), 1.2)
     spacing = math.hypot(1.2 / 599, 0.5 * 2 * math.pi / 720)
@@ -151,13 +158,8 @@ def test_cone_random_points_both_sides(r1, r2):
     a = _random_unit(rng)
     wall = Cone(base=c, axis=a, r1=r1, r2=r2, length=1.0)
     kind, p = _row(wall)
-    e1, e2 = _frame(a)
-    loc = rng.uniform([-1.1, -1.1, -0.6], [1.1, 1.1, 1.6], (400, 3))
-    pts = c + loc[:, :1] * e1 + loc[:, 1:2] * e2 + loc[:, 2:] * a
-    d, n = _query(kind, p, pts)
-    q = pts - d[:, None] * n
-    h = (q - c) @ a
-    rho = np.linalg.norm(q - c - h[:, None] * a, axis=1)
+    pts = _around_axis(c, a, rng.uniform([-1.1, -1.1, -0.6], [1.1, 1.1, 1.6], (400, 3)))
+    d, _, h, rho = _nearest_axial(kind, p, pts, c, a)
     on = (np.abs(rho - (r1 + (r2 - r1) * h)) < 1e-12) & (h >= -1e-12) & (h <= 1.0 + 1e-12)
     samples = _samples_revolution(c, a, lambda H: r1 + (r2 - r1) * H, 1.0)
     spacing = math.hypot(math.hypot(1.0, r2 - r1) / 599, max(r1, r2) * 2 * math.pi / 720)

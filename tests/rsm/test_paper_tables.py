@@ -82,9 +82,10 @@ TABLE9 = [
 ]
 
 
-@pytest.mark.parametrize("source, ms, F, p", TABLE5)
-def test_table5_row(table5, source, ms, F, p):
-    row = table5.anova.loc[source]
+@pytest.mark.parametrize("table, source, ms, F, p",
+                         [("table5", *row) for row in TABLE5] + [("table9", *row) for row in TABLE9])
+def test_anova_row(request, table, source, ms, F, p):
+    row = request.getfixturevalue(table).anova.loc[source]
     assert _printed(row["mean_sq"], ms)
     assert _printed(row["F"], F)
     if p is None:
@@ -93,31 +94,15 @@ def test_table5_row(table5, source, ms, F, p):
         assert _printed(row["p"], p)
 
 
-@pytest.mark.parametrize("source, ms, F, p", TABLE9)
-def test_table9_row(table9, source, ms, F, p):
-    row = table9.anova.loc[source]
-    assert _printed(row["mean_sq"], ms)
-    assert _printed(row["F"], F)
-    if p is None:
-        assert row["p"] < 1e-4
-    else:
-        assert _printed(row["p"], p)
-
-
-def test_table5_fit_statistics(table5):
-    f = table5.fit
-    assert round(f.r2, 3) == 0.959
-    assert round(f.adj_r2, 3) == 0.918
-    assert round(f.pred_r2, 4) == 0.7755
-    assert round(f.cv_percent, 2) == 3.49
-
-
-def test_table9_fit_statistics(table9):
-    f = table9.fit
-    assert round(f.r2, 3) == 0.998
-    assert round(f.adj_r2, 3) == 0.995
-    assert round(f.pred_r2, 4) == 0.9770
-    assert round(f.cv_percent, 2) == 0.78
+# (R², adjusted R², predicted R², C.V. %) as printed with Tables 5 and 9
+@pytest.mark.parametrize("table, r2, adj_r2, pred_r2, cv_percent",
+                         [("table5", 0.959, 0.918, 0.7755, 3.49), ("table9", 0.998, 0.995, 0.9770, 0.78)])
+def test_fit_statistics(request, table, r2, adj_r2, pred_r2, cv_percent):
+    f = request.getfixturevalue(table).fit
+    assert round(f.r2, 3) == r2
+    assert round(f.adj_r2, 3) == adj_r2
+    assert round(f.pred_r2, 4) == pred_r2
+    assert round(f.cv_percent, 2) == cv_percent
 
 
 def test_equation_4_coefficients(table5):

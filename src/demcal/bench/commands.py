@@ -22,14 +22,15 @@ import argparse
 import json
 import sys
 
+from demcal._cliutil import add_command, add_json
 from demcal.errors import ConfigError
 
 _TESTS = ("repose-funnel", "repose-cylinder", "incline", "impact")
 
 
 def register(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "bench",
+    parser = add_command(
+        subparsers, "bench", run,
         help="run a virtual bench test (angle of repose, inclined plane, impact)",
         description="Run one virtual bench test and print its measured response. "
                     "`demcal bench NAME --help` lists the test's settings.",
@@ -44,10 +45,10 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--out", metavar="DIR", help="folder for the pictures (heap PNG) and VTK files")
     parser.add_argument("--vtk", action="store_true", help="also write VTK files of the run (needs --out)")
-    parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    add_json(parser, "print the result as JSON")
     parser.add_argument("--list", action="store_true", help="list the tests and exit")
     parser.add_argument("-h", "--help", action="store_true", help="show this help (with NAME: its settings)")
-    parser.set_defaults(func=run, _parser=parser)
+    parser.set_defaults(_parser=parser)
 
 
 def parse_sets(items) -> dict:

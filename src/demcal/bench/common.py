@@ -80,46 +80,66 @@ def per_profile(profile: str, tiny, quick, paper):
     return {"tiny": tiny, "quick": quick, "paper": paper}[profile]
 
 
+#: Unit and allowed range of each material and interaction property; the same for the
+#: particles (``particle.*``), the steel walls (``wall.*``) and the film (``film.*``).
+PROPERTY_RANGES = {
+    "density": ("kg/m3", 100.0, 20000.0),
+    "shear_modulus": ("Pa", 1.0e4, 1.0e11),
+    "poisson_ratio": ("-", 0.0, 0.499),
+    "yield_strength": ("Pa", 1.0e3, 1.0e10),
+    "restitution": ("-", 0.01, 1.0),
+    "static_friction": ("-", 0.0, 2.0),
+    "rolling_friction": ("-", 0.0, 1.0),
+    "damping_factor": ("-", 0.0, 2.0),
+    "stiffness_factor": ("-", 0.01, 10.0),
+}
+
+
+def property_settings(prefix: str, rows) -> list[Setting]:
+    """Settings ``prefix.<property>`` from ``(property, default, help)`` rows, with the
+    unit and range of :data:`PROPERTY_RANGES`."""
+    out = []
+    for prop, default, text in rows:
+        unit, low, high = PROPERTY_RANGES[prop]
+        out.append(Setting(f"{prefix}.{prop}", default, unit, text, low, high))
+    return out
+
+
 def material_settings(film: bool = False) -> list[Setting]:
     """The particle (and, for the incline, film) material and interaction keys."""
-    s = [
-        Setting("particle.density", 1687.85, "kg/m3", "particle density (paper Table 2)", 100.0, 20000.0),
-        Setting("particle.shear_modulus", 1.0e6, "Pa", "particle shear modulus G (paper Table 2)", 1.0e4, 1.0e11),
-        Setting("particle.poisson_ratio", 0.46, "-", "particle Poisson ratio (paper Table 2)", 0.0, 0.499),
-        Setting("particle.yield_strength", 2.0e5, "Pa",
-                "particle yield strength Y for the Hysteretic Spring model, K1 = 5 R* Y "
-                "(our choice; the paper gives none)", 1.0e3, 1.0e10),
-        Setting("particle.restitution", 0.6, "-", "particle-particle coefficient of restitution e "
-                "(paper Table 3 centre)", 0.01, 1.0),
-        Setting("particle.static_friction", 0.4, "-", "particle-particle static friction mu "
-                "(paper Table 3 centre)", 0.0, 2.0),
-        Setting("particle.rolling_friction", 0.2, "-", "particle-particle rolling ('dynamic') "
-                "friction gamma (paper Table 3 centre)", 0.0, 1.0),
-        Setting("particle.damping_factor", 0.1, "-", "Hysteretic Spring damping factor zeta "
-                "(paper Table 3 centre)", 0.0, 2.0),
-        Setting("particle.stiffness_factor", 0.95, "-", "Hysteretic Spring stiffness factor xi, "
-                "k_t = xi K1 (paper Table 2)", 0.01, 10.0),
-        Setting("wall.restitution", 0.5, "-", "particle-steel restitution (our choice)", 0.01, 1.0),
-        Setting("wall.static_friction", 0.6, "-", "particle-plate static friction (our choice: a rough plate)", 0.0, 2.0),
-        Setting("wall.rolling_friction", 0.3, "-", "particle-plate rolling friction (our choice: a rough plate)", 0.0, 1.0),
-        Setting("wall.damping_factor", 0.1, "-", "particle-steel damping factor (our choice)", 0.0, 2.0),
+    s = property_settings("particle", [
+        ("density", 1687.85, "particle density (paper Table 2)"),
+        ("shear_modulus", 1.0e6, "particle shear modulus G (paper Table 2)"),
+        ("poisson_ratio", 0.46, "particle Poisson ratio (paper Table 2)"),
+        ("yield_strength", 2.0e5, "particle yield strength Y for the Hysteretic Spring model, "
+         "K1 = 5 R* Y (our choice; the paper gives none)"),
+        ("restitution", 0.6, "particle-particle coefficient of restitution e (paper Table 3 centre)"),
+        ("static_friction", 0.4, "particle-particle static friction mu (paper Table 3 centre)"),
+        ("rolling_friction", 0.2, "particle-particle rolling ('dynamic') friction gamma "
+         "(paper Table 3 centre)"),
+        ("damping_factor", 0.1, "Hysteretic Spring damping factor zeta (paper Table 3 centre)"),
+        ("stiffness_factor", 0.95, "Hysteretic Spring stiffness factor xi, k_t = xi K1 (paper Table 2)"),
+    ]) + property_settings("wall", [
+        ("restitution", 0.5, "particle-steel restitution (our choice)"),
+        ("static_friction", 0.6, "particle-plate static friction (our choice: a rough plate)"),
+        ("rolling_friction", 0.3, "particle-plate rolling friction (our choice: a rough plate)"),
+        ("damping_factor", 0.1, "particle-steel damping factor (our choice)"),
+    ]) + [
         Setting("contact.model", "hysteretic_spring", "-", "contact model", choices=CONTACT_MODELS),
         Setting("rolling.model", "type_a", "-", "rolling resistance model", choices=ROLLING_MODELS),
     ]
     if film:
-        s += [
-            Setting("film.restitution", 0.6, "-", "particle-film restitution e' (paper Table 7 centre)", 0.01, 1.0),
-            Setting("film.static_friction", 0.5, "-", "particle-film static friction mu' "
-                    "(paper Table 7 centre)", 0.0, 2.0),
-            Setting("film.rolling_friction", 0.15, "-", "particle-film rolling friction gamma' "
-                    "(paper Table 7 centre)", 0.0, 1.0),
-            Setting("film.damping_factor", 0.1, "-", "particle-film damping factor (our choice)", 0.0, 2.0),
-            Setting("film.stiffness_factor", 0.95, "-", "particle-film stiffness factor (as Table 2)", 0.01, 10.0),
-            Setting("film.density", 920.0, "kg/m3", "film density (polyethylene)", 100.0, 20000.0),
-            Setting("film.shear_modulus", 1.0e8, "Pa", "film shear modulus (polyethylene)", 1.0e4, 1.0e11),
-            Setting("film.poisson_ratio", 0.4, "-", "film Poisson ratio (polyethylene)", 0.0, 0.499),
-            Setting("film.yield_strength", 1.0e7, "Pa", "film yield strength (polyethylene)", 1.0e3, 1.0e10),
-        ]
+        s += property_settings("film", [
+            ("restitution", 0.6, "particle-film restitution e' (paper Table 7 centre)"),
+            ("static_friction", 0.5, "particle-film static friction mu' (paper Table 7 centre)"),
+            ("rolling_friction", 0.15, "particle-film rolling friction gamma' (paper Table 7 centre)"),
+            ("damping_factor", 0.1, "particle-film damping factor (our choice)"),
+            ("stiffness_factor", 0.95, "particle-film stiffness factor (as Table 2)"),
+            ("density", 920.0, "film density (polyethylene)"),
+            ("shear_modulus", 1.0e8, "film shear modulus (polyethylene)"),
+            ("poisson_ratio", 0.4, "film Poisson ratio (polyethylene)"),
+            ("yield_strength", 1.0e7, "film yield strength (polyethylene)"),
+        ])
     return s
 
 
@@ -148,6 +168,19 @@ def time_settings(profile: str, step_fraction: float, max_time: float,
     ]
 
 
+def standard_settings(profile: str, counts, own: list[Setting], step_fraction, max_time,
+                      film: bool = False) -> list[Setting]:
+    """The table of a test that simulates a population of particles: the material keys,
+    the particle keys with ``particles.count`` from ``counts``, the test's ``own`` keys and
+    the time keys; ``counts``, ``step_fraction`` and ``max_time`` are (tiny, quick, paper)
+    defaults."""
+    return (material_settings(film=film)
+            + particle_settings(profile, per_profile(profile, *counts))
+            + own
+            + time_settings(profile, per_profile(profile, *step_fraction),
+                            per_profile(profile, *max_time)))
+
+
 def table(settings: list[Setting]) -> dict[str, Setting]:
     return {s.key: s for s in settings}
 
@@ -172,17 +205,21 @@ def sizes_for(s: Mapping[str, Any]):
     return Uniform(lo, hi)
 
 
-def mean_cube(lo: float, hi: float) -> float:
-    """E[s^3] of s uniform in [lo, hi]."""
-    return lo ** 3 if hi == lo else (hi ** 4 - lo ** 4) / (4.0 * (hi - lo))
+def fill_height(n: int, template, sizes, radius: float, b_max: float) -> float:
+    """Height [m] to insert ``n`` particles into at random in a cylinder of ``radius`` [m]:
+    their bounding spheres (``sizes`` scale factors) at 25 % solids (random insertion
+    reaches about 30 %), plus two largest bounding radii ``b_max`` [m]."""
+    b_vol = n * 4.0 / 3.0 * math.pi * float(template.bounding_radius) ** 3 * sizes.mean_cube()
+    return b_vol / (0.25 * math.pi * radius ** 2) + 2 * b_max
 
 
-def particle_material(s: Mapping[str, Any]):
+def material_of(s: Mapping[str, Any], prefix: str = "particle"):
+    """The Material of ``prefix`` (``particle`` or ``film``) from settings."""
     from demcal.particles.materials import Material
 
-    return Material(density=s["particle.density"], shear_modulus=s["particle.shear_modulus"],
-                    poisson_ratio=s["particle.poisson_ratio"],
-                    yield_strength=s["particle.yield_strength"], name="particle")
+    return Material(density=s[f"{prefix}.density"], shear_modulus=s[f"{prefix}.shear_modulus"],
+                    poisson_ratio=s[f"{prefix}.poisson_ratio"],
+                    yield_strength=s[f"{prefix}.yield_strength"], name=prefix)
 
 
 def interaction(s: Mapping[str, Any], prefix: str, stiffness_key: str | None = None):
@@ -316,6 +353,19 @@ def check_finite(sim, what: str) -> None:
         raise SimulationError(
             f"the {what} simulation blew up at t = {sim.time:.3g} s (non-finite positions); "
             "lower time.step_fraction.")
+
+
+class Settle:
+    """The kinetic-energy rest criterion: :func:`rms_speed` below ``limit`` [m/s] at two
+    checks in a row."""
+
+    def __init__(self, sim, limit):
+        self.sim, self.limit, self.hits = sim, limit, 0
+
+    def __call__(self, extra_ok=True) -> bool:
+        v = rms_speed(self.sim)
+        self.hits = self.hits + 1 if (extra_ok and v < self.limit) else 0
+        return self.hits >= 2
 
 
 class BenchExperiment:

@@ -49,16 +49,14 @@ class Impact(C.BenchExperiment):
 
     def _run(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Plane, WallSet
-        from demcal.particles.materials import Material, steel
+        from demcal.particles.materials import steel
         from demcal.particles.templates import sphere
 
         r = float(s["impact.radius"])
         v = float(s["impact.speed"])
         target = s["impact.target"]
-        film = Material(density=s["film.density"], shear_modulus=s["film.shear_modulus"],
-                        poisson_ratio=s["film.poisson_ratio"], yield_strength=s["film.yield_strength"],
-                        name="film")
-        mats = [C.particle_material(s), steel(), film]
+        film = C.material_of(s, "film")
+        mats = [C.material_of(s), steel(), film]
         inter = {(0, 0): C.interaction(s, "particle"), (0, 1): C.interaction(s, "wall"),
                  (0, 2): C.interaction(s, "film"), "default": C.interaction(s, "wall")}
         walls = None

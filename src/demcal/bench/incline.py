@@ -82,42 +82,38 @@ class Incline(C.BenchExperiment):
     responses = ("sliding_angle_deg",)
 
     def _settings(self, profile):
-        P = C.per_profile
-        return (C.material_settings(film=True)
-                + C.particle_settings(profile, P(profile, 120, 250, 1500))
-                + [
-                    Setting("incline.material", "particles", "-",
-                            "loose particles in a container, or one rigid block (a check)",
-                            choices=("particles", "block")),
-                    Setting("incline.container", "follow", "-",
-                            "container during the tilt: follows the material, or removed",
-                            choices=("follow", "remove")),
-                    Setting("incline.tilt_rate", P(profile, 10.0, 5.0, 1.0), "deg/s",
-                            "tilting rate of the plate", 0.01, 90.0),
-                    Setting("incline.start_angle", 15.0, "deg", "angle at which tilting starts", 0.0, 80.0),
-                    Setting("incline.max_angle", 60.0, "deg", "give up above this angle", 1.0, 89.0),
-                    Setting("incline.slide_speed", 0.02, "m/s",
-                            "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
-                    Setting("incline.arm_length", 0.3, "m",
-                            "L: container start to spindle, for H = L sin(theta) (paper: 300 mm)", 0.001, 10.0),
-                    Setting("geometry.scale", 4.0, "-", "container scale factor (as the repose platform)",
-                            0.25, 20.0),
-                    Setting("geometry.container_diameter", 0.05, "m",
-                            "bottomless container diameter at scale 1", 0.002, 2.0),
-                ]
-                + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 20.0, 25.0, 60.0)))
+        own = [
+            Setting("incline.material", "particles", "-",
+                    "loose particles in a container, or one rigid block (a check)",
+                    choices=("particles", "block")),
+            Setting("incline.container", "follow", "-",
+                    "container during the tilt: follows the material, or removed",
+                    choices=("follow", "remove")),
+            Setting("incline.tilt_rate", C.per_profile(profile, 10.0, 5.0, 1.0), "deg/s",
+                    "tilting rate of the plate", 0.01, 90.0),
+            Setting("incline.start_angle", 15.0, "deg", "angle at which tilting starts", 0.0, 80.0),
+            Setting("incline.max_angle", 60.0, "deg", "give up above this angle", 1.0, 89.0),
+            Setting("incline.slide_speed", 0.02, "m/s",
+                    "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
+            Setting("incline.arm_length", 0.3, "m",
+                    "L: container start to spindle, for H = L sin(theta) (paper: 300 mm)", 0.001, 10.0),
+            Setting("geometry.scale", 4.0, "-", "container scale factor (as the repose platform)",
+                    0.25, 20.0),
+            Setting("geometry.container_diameter", 0.05, "m",
+                    "bottomless container diameter at scale 1", 0.002, 2.0),
+        ]
+        return C.standard_settings(profile, (120, 250, 1500), own, (0.2, 0.2, 0.1), (20.0, 25.0, 60.0),
+                                   film=True)
 
     # ------------------------------------------------------------------------------
     def _run(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Cylinder, Plane, WallSet
         from demcal.particles.insertion import CylinderRegion, insert
-        from demcal.particles.materials import Interaction, Material, steel
+        from demcal.particles.materials import Interaction, steel
 
         block = s["incline.material"] == "block"
-        film = Material(density=s["film.density"], shear_modulus=s["film.shear_modulus"],
-                        poisson_ratio=s["film.poisson_ratio"], yield_strength=s["film.yield_strength"],
-                        name="film")
-        mats = [C.particle_material(s), film, steel()]
+        film = C.material_of(s, "film")
+        mats = [C.material_of(s), film, steel()]
         slick = Interaction(restitution=s["wall.restitution"], static_friction=0.0, rolling_friction=0.0,
                             damping_factor=s["wall.damping_factor"],
                             stiffness_factor=s["particle.stiffness_factor"])
@@ -153,10 +149,8 @@ class Incline(C.BenchExperiment):
                 raise ConfigError(
                     f"the container ({2 * r_c * 1e3:.0f} mm at scale {k:g}) is narrower than four of the "
                     f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.container_diameter.")
-            lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
-            b_vol = n * 4.0 / 3.0 * math.pi * float(tpl.bounding_radius) ** 3 * C.mean_cube(lo, hi)
-            fill_h = b_vol / (0.25 * math.pi * (0.98 * r_c) ** 2) + 2 * b_max
-            gap = 0.1 * float(np.min(tpl.radii)) * lo
+            fill_h = C.fill_height(n, tpl, sizes, 0.98 * r_c, b_max)
+            gap = 0.1 * float(np.min(tpl.radii)) * sizes.min_scale
             container = Cylinder(base=(0, 0, gap), axis=(0, 0, 1), radius=r_c, length=fill_h + 2 * b_max,
                                  material=2, name="container", motion=motion)
             walls = WallSet([plane, container])
@@ -179,12 +173,7 @@ class Incline(C.BenchExperiment):
         if settle_time is not None:
             sim.run(duration=settle_time)
         else:
-            hits = [0]
-
-            def rest():
-                hits[0] = hits[0] + 1 if C.rms_speed(sim) < float(s["time.rest_speed"]) else 0
-                return hits[0] >= 2
-
+            rest = C.Settle(sim, float(s["time.rest_speed"]))
             if not C.run_until(sim, 0.02, rest, max_time, each):
                 raise SimulationError(f"the bed did not settle within time.max_time = {max_time:g} s; "
                                       "raise time.max_time.")

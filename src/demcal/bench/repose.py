@@ -55,28 +55,34 @@ from demcal.errors import ConfigError, DemcalError, SimulationError
 HEAP_SOLIDS = 0.55
 
 
-def _measure_settings() -> list[Setting]:
-    return [
+def _repose_settings(profile, counts, before: list[Setting], after: list[Setting]) -> list[Setting]:
+    """The table of both repose tests: the common keys around the platform scale and
+    plate (test keys ``before`` and ``after`` them) and the heap measurement keys."""
+    platform = [
+        Setting("geometry.scale", 4.0, "-", "platform scale factor (paper: 4)", 0.25, 20.0),
+        Setting("geometry.plate_diameter", 0.25, "m", "base plate diameter at scale 1", 0.01, 10.0),
+    ]
+    measure = [
         Setting("measure.views", 8, "-", "view directions around the heap axis (over 180 deg)", 1, 64),
         Setting("measure.band_low", 0.1, "-", "lower end of the flank fit, fraction of heap height", 0.0, 0.9),
         Setting("measure.band_high", 0.9, "-", "upper end of the flank fit, fraction of heap height", 0.1, 1.0),
     ]
+    return C.standard_settings(profile, counts, before + platform + after, (0.2, 0.2, 0.1),
+                               (6.0, 10.0, 40.0)) + measure
 
 
 def _materials(s):
     from demcal.particles.materials import steel
 
-    mats = [C.particle_material(s), steel()]
+    mats = [C.material_of(s), steel()]
     inter = {(0, 0): C.interaction(s, "particle"), (0, 1): C.interaction(s, "wall"),
              (1, 1): C.interaction(s, "wall")}
     return mats, inter
 
 
-def _heap_volume(s, template) -> float:
+def _heap_volume(n, template, sizes) -> float:
     """Bulk volume [m3] of the particles at :data:`HEAP_SOLIDS`."""
-    n = C.count_of(s)
-    lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
-    return n * template.volume * C.mean_cube(lo, hi) / HEAP_SOLIDS
+    return n * template.volume * sizes.mean_cube() / HEAP_SOLIDS
 
 
 def _cone_radius(volume: float, angle_deg: float) -> float:
@@ -88,10 +94,35 @@ def _bounding_radius(template) -> float:
     return float(getattr(template, "bounding_radius", np.max(template.radii)))
 
 
-def _measure(sim, s, plate_radius, out_dir, title):
-    """Measure the heap; write heap.png and heap.json to ``out_dir``."""
+def _platform(s):
+    """What both tests derive first: scale, template, sizes, count, plate radius [m] and
+    the largest bounding radius [m]."""
+    k = float(s["geometry.scale"])
+    tpl = C.template_for(s)
+    sizes = C.sizes_for(s)
+    n = C.count_of(s)
+    r_plate = 0.5 * k * s["geometry.plate_diameter"]
+    return k, tpl, sizes, n, r_plate, _bounding_radius(tpl) * sizes.max_scale
+
+
+def _check_plate(tpl, sizes, n, k, r_plate) -> float:
+    """The heap's bulk volume [m3]; raises unless its 20-deg cone fits on the plate."""
+    vol = _heap_volume(n, tpl, sizes)
+    r20 = _cone_radius(vol, 20.0)
+    if r20 > r_plate:
+        raise ConfigError(
+            f"the base plate ({2 * r_plate:.2f} m across at scale {k:g}) is too small for "
+            f"{n} particles: their heap at 20 deg would be {2 * r20:.2f} m across; raise "
+            "geometry.plate_diameter or lower particles.count.")
+    return vol
+
+
+def _measure(sim, s, plate_radius, out_dir, vtkw, progress) -> dict:
+    """Measure the heap at rest; write heap.png and heap.json to ``out_dir``; the run's
+    result (responses, spread, counts, artifacts)."""
     from demcal.measure.heap import measure_heap
 
+    progress(f"at rest at t {sim.time:.2f} s; measuring")
     st = sim.state
     png = Path(out_dir, "heap.png") if out_dir is not None else None
     lo, hi = float(s["measure.band_low"]), float(s["measure.band_high"])
@@ -100,7 +131,7 @@ def _measure(sim, s, plate_radius, out_dir, title):
     try:
         m = measure_heap(st.sphere_positions.copy(), st.radii.copy(), base_z=0.0, axis_xy=(0.0, 0.0),
                          views=int(s["measure.views"]), band=(lo, hi), plate_radius=plate_radius,
-                         png=png, title=title)
+                         png=png, title=None)
     except DemcalError as exc:
         raise SimulationError(f"the heap could not be measured: {exc}") from None
     artifacts = {}
@@ -116,20 +147,13 @@ def _measure(sim, s, plate_radius, out_dir, title):
         "heap_fit_r2": m.r2,
         "heap_height_mm": m.height * 1e3,
         "heap_diameter_mm": m.diameter * 1e3,
+        "particles_lost": float(sim.escaped),
     }
-    return responses, {"repose_angle_deg": m.spread_deg}, artifacts
-
-
-class _Settle:
-    """The kinetic-energy rest criterion: rms speed below the limit at two checks."""
-
-    def __init__(self, sim, limit):
-        self.sim, self.limit, self.hits = sim, limit, 0
-
-    def __call__(self, extra_ok=True) -> bool:
-        v = C.rms_speed(self.sim)
-        self.hits = self.hits + 1 if (extra_ok and v < self.limit) else 0
-        return self.hits >= 2
+    if vtkw.path:
+        artifacts["vtk"] = vtkw.path
+    return dict(responses=responses, spread={"repose_angle_deg": m.spread_deg},
+                particles=sim.n_particles + sim.escaped, steps=sim.step_count, simulated_s=sim.time,
+                artifacts=artifacts)
 
 
 class ReposeFunnel(C.BenchExperiment):
@@ -140,37 +164,26 @@ class ReposeFunnel(C.BenchExperiment):
 
     def _settings(self, profile):
         P = C.per_profile
-        return (C.material_settings()
-                + C.particle_settings(profile, P(profile, 150, 500, 20000))
-                + [
-                    Setting("particles.rate", P(profile, 4000.0, 4000.0, 3000.0), "1/s",
-                            "generation rate above the funnel (slowed down while the region is full)",
-                            1.0, 1e6),
-                    Setting("geometry.scale", 4.0, "-", "platform scale factor (paper: 4)", 0.25, 20.0),
-                    Setting("geometry.plate_diameter", 0.25, "m", "base plate diameter at scale 1", 0.01, 10.0),
-                    Setting("geometry.outlet_diameter", 0.025, "m", "funnel outlet diameter at scale 1", 0.001, 1.0),
-                    Setting("geometry.funnel_diameter", 0.1, "m", "funnel rim diameter at scale 1", 0.002, 2.0),
-                    Setting("geometry.funnel_height", 0.05, "m", "funnel cone height at scale 1", 0.001, 2.0),
-                    Setting("geometry.outlet_height", P(profile, 0.02, 0.03, 0.1), "m",
-                            "outlet height above the plate at scale 1", 0.001, 5.0),
-                ]
-                + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 6.0, 10.0, 40.0))
-                + _measure_settings())
+        rate = Setting("particles.rate", P(profile, 4000.0, 4000.0, 3000.0), "1/s",
+                       "generation rate above the funnel (slowed down while the region is full)",
+                       1.0, 1e6)
+        return _repose_settings(profile, (150, 500, 20000), [rate], [
+            Setting("geometry.outlet_diameter", 0.025, "m", "funnel outlet diameter at scale 1", 0.001, 1.0),
+            Setting("geometry.funnel_diameter", 0.1, "m", "funnel rim diameter at scale 1", 0.002, 2.0),
+            Setting("geometry.funnel_height", 0.05, "m", "funnel cone height at scale 1", 0.001, 2.0),
+            Setting("geometry.outlet_height", P(profile, 0.02, 0.03, 0.1), "m",
+                    "outlet height above the plate at scale 1", 0.001, 5.0),
+        ])
 
     def _run(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Disk, Funnel, WallSet
         from demcal.particles.insertion import CylinderRegion, Inserter
 
-        k = float(s["geometry.scale"])
-        tpl = C.template_for(s)
-        sizes = C.sizes_for(s)
-        n = C.count_of(s)
-        r_plate = 0.5 * k * s["geometry.plate_diameter"]
+        k, tpl, sizes, n, r_plate, b_max = _platform(s)
         r_out = 0.5 * k * s["geometry.outlet_diameter"]
         r_top = 0.5 * k * s["geometry.funnel_diameter"]
         h_cone = k * s["geometry.funnel_height"]
         h_out = k * s["geometry.outlet_height"]
-        b_max = _bounding_radius(tpl) * sizes.max_scale
         if r_top <= r_out:
             raise ConfigError("geometry.funnel_diameter must exceed geometry.outlet_diameter.")
         if 2 * r_out < 3 * 2 * b_max:
@@ -178,13 +191,7 @@ class ReposeFunnel(C.BenchExperiment):
                 f"the funnel outlet ({2 * r_out * 1e3:.0f} mm at scale {k:g}) is narrower than three of "
                 f"the largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.outlet_diameter or "
                 "geometry.scale, or lower particles.scale_max.")
-        vol = _heap_volume(s, tpl)
-        r20 = _cone_radius(vol, 20.0)
-        if r20 > r_plate:
-            raise ConfigError(
-                f"the base plate ({2 * r_plate:.2f} m across at scale {k:g}) is too small for "
-                f"{n} particles: their heap at 20 deg would be {2 * r20:.2f} m across; raise "
-                "geometry.plate_diameter or lower particles.count.")
+        vol = _check_plate(tpl, sizes, n, k, r_plate)
         h50 = _cone_radius(vol, 50.0) * math.tan(math.radians(50.0))
         if h50 > h_out:
             raise ConfigError(
@@ -225,7 +232,7 @@ class ReposeFunnel(C.BenchExperiment):
                                   velocities=ins.velocities, seed=seed)
 
         add()
-        settle = _Settle(sim, float(s["time.rest_speed"]))
+        settle = C.Settle(sim, float(s["time.rest_speed"]))
         last_report = [0.0]
 
         def each():
@@ -258,14 +265,7 @@ class ReposeFunnel(C.BenchExperiment):
                 f"the heap was not at rest after time.max_time = {s['time.max_time']:g} s "
                 f"({in_funnel} particles still in the funnel, rms speed {C.rms_speed(sim):.3g} m/s); "
                 "raise time.max_time.")
-        progress(f"at rest at t {sim.time:.2f} s; measuring")
-        responses, spread, artifacts = _measure(
-            sim, s, r_plate, out_dir, None)
-        if vtkw.path:
-            artifacts["vtk"] = vtkw.path
-        responses["particles_lost"] = float(sim.escaped)
-        return dict(responses=responses, spread=spread, particles=sim.n_particles + sim.escaped,
-                    steps=sim.step_count, simulated_s=sim.time, artifacts=artifacts)
+        return _measure(sim, s, r_plate, out_dir, vtkw, progress)
 
 
 def _jammed(sim, h_out, b_max) -> bool:
@@ -286,48 +286,28 @@ class ReposeCylinder(C.BenchExperiment):
 
     def _settings(self, profile):
         P = C.per_profile
-        return (C.material_settings()
-                + C.particle_settings(profile, P(profile, 250, 1000, 20000))
-                + [
-                    Setting("geometry.scale", 4.0, "-", "platform scale factor (paper: 4)", 0.25, 20.0),
-                    Setting("geometry.plate_diameter", 0.25, "m", "base plate diameter at scale 1", 0.01, 10.0),
-                    Setting("geometry.cylinder_diameter", P(profile, 0.03, 0.03, 0.08), "m",
-                            "cylinder inner diameter at scale 1", 0.002, 2.0),
-                    Setting("geometry.lift_speed", P(profile, 0.1, 0.1, 0.05), "m/s",
-                            "cylinder lifting speed", 0.001, 10.0),
-                ]
-                + C.time_settings(profile, P(profile, 0.2, 0.2, 0.1), P(profile, 6.0, 10.0, 40.0))
-                + _measure_settings())
+        return _repose_settings(profile, (250, 1000, 20000), [], [
+            Setting("geometry.cylinder_diameter", P(profile, 0.03, 0.03, 0.08), "m",
+                    "cylinder inner diameter at scale 1", 0.002, 2.0),
+            Setting("geometry.lift_speed", P(profile, 0.1, 0.1, 0.05), "m/s",
+                    "cylinder lifting speed", 0.001, 10.0),
+        ])
 
     def _run(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Cylinder, Disk, WallSet
         from demcal.particles.insertion import CylinderRegion, insert
 
-        k = float(s["geometry.scale"])
-        tpl = C.template_for(s)
-        sizes = C.sizes_for(s)
-        n = C.count_of(s)
-        r_plate = 0.5 * k * s["geometry.plate_diameter"]
+        k, tpl, sizes, n, r_plate, b_max = _platform(s)
         r_cyl = 0.5 * k * s["geometry.cylinder_diameter"]
-        b_max = _bounding_radius(tpl) * sizes.max_scale
         if 2 * r_cyl < 4 * 2 * b_max:
             raise ConfigError(
                 f"the cylinder ({2 * r_cyl * 1e3:.0f} mm at scale {k:g}) is narrower than four of the "
                 f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.cylinder_diameter.")
-        vol = _heap_volume(s, tpl)
-        r20 = _cone_radius(vol, 20.0)
-        if r20 > r_plate:
-            raise ConfigError(
-                f"the base plate ({2 * r_plate:.2f} m across at scale {k:g}) is too small for "
-                f"{n} particles: their heap at 20 deg would be {2 * r20:.2f} m across; raise "
-                "geometry.plate_diameter or lower particles.count.")
-        # random insertion reaches about 30 % solids (bounding spheres): size the fill for 25 %
-        lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
-        b_vol = n * 4.0 / 3.0 * math.pi * _bounding_radius(tpl) ** 3 * C.mean_cube(lo, hi)
-        fill_h = b_vol / (0.25 * math.pi * (r_cyl - 0.01 * r_cyl) ** 2) + 2 * b_max
+        _check_plate(tpl, sizes, n, k, r_plate)
+        fill_h = C.fill_height(n, tpl, sizes, r_cyl - 0.01 * r_cyl, b_max)
         motion = C.DrivenTranslation()
         mats, inter = _materials(s)
-        gap = 0.1 * float(np.min(tpl.radii)) * lo
+        gap = 0.1 * float(np.min(tpl.radii)) * sizes.min_scale
         walls = WallSet([
             Disk(centre=(0, 0, 0), normal=(0, 0, 1), radius=r_plate, material=1, name="plate"),
             Cylinder(base=(0, 0, gap), axis=(0, 0, 1), radius=r_cyl, length=fill_h + 2 * b_max,
@@ -347,7 +327,7 @@ class ReposeCylinder(C.BenchExperiment):
             vtkw(sim)
             C.check_finite(sim, "repose-cylinder")
 
-        settle = _Settle(sim, float(s["time.rest_speed"]))
+        settle = C.Settle(sim, float(s["time.rest_speed"]))
         if not C.run_until(sim, 0.02, settle, max_time, each):
             raise SimulationError(f"the filled cylinder did not settle within time.max_time = {max_time:g} s; "
                                   "raise time.max_time.")
@@ -366,18 +346,12 @@ class ReposeCylinder(C.BenchExperiment):
         motion.place((0.0, 0.0, 0.0), (0.0, 0.0, v))
         C.run_until(sim, lift_steps * sim.dt, lambda: sim.time >= t_clear, max_time, lift_each)
         motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))
-        settle = _Settle(sim, float(s["time.rest_speed"]))
+        settle = C.Settle(sim, float(s["time.rest_speed"]))
         if not C.run_until(sim, 0.02, settle, max_time, each):
             raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "
                                   "raise time.max_time.")
         vtkw(sim, force=True)
-        progress(f"at rest at t {sim.time:.2f} s; measuring")
-        responses, spread, artifacts = _measure(sim, s, r_plate, out_dir, None)
-        if vtkw.path:
-            artifacts["vtk"] = vtkw.path
-        responses["particles_lost"] = float(sim.escaped)
-        return dict(responses=responses, spread=spread, particles=sim.n_particles + sim.escaped,
-                    steps=sim.step_count, simulated_s=sim.time, artifacts=artifacts)
+        return _measure(sim, s, r_plate, out_dir, vtkw, progress)
 
 
 register(ReposeFunnel())

@@ -6,45 +6,42 @@ import argparse
 import sys
 from pathlib import Path
 
+from demcal._cliutil import add_command
 from demcal.errors import ConfigError
 
 
 def register(subparsers) -> None:
-    run = subparsers.add_parser(
-        "run", help="simulate every design point of a campaign (resumable, parallel)",
-        description="Simulate every design point of a campaign file. Finished runs are kept in "
-                    "the campaign's store and skipped when run again; failed runs are retried "
-                    "only with --retry-failed.")
-    _common(run)
-    _execution(run)
-    run.add_argument("--retry-failed", action="store_true", help="run failed points again")
-    run.set_defaults(func=_run)
+    for name, func, help, description, retry_help in (
+        ("run", _run, "simulate every design point of a campaign (resumable, parallel)",
+         "Simulate every design point of a campaign file. Finished runs are kept in the "
+         "campaign's store and skipped when run again; failed runs are retried only with "
+         "--retry-failed.", "run failed points again"),
+        ("calibrate", _calibrate, "fit the response model, solve each target, verify by simulation",
+         "Fit the response model to the design results, solve it for each condition's lab "
+         "target and simulate the chosen parameters again (verification replicates).",
+         "run failed verification runs again"),
+    ):
+        parser = add_command(subparsers, name, func, help, description)
+        _common(parser)
+        _execution(parser)
+        parser.add_argument("--retry-failed", action="store_true", help=retry_help)
 
-    calibrate = subparsers.add_parser(
-        "calibrate", help="fit the response model, solve each target, verify by simulation",
-        description="Fit the response model to the design results, solve it for each condition's "
-                    "lab target and simulate the chosen parameters again (verification replicates).")
-    _common(calibrate)
-    _execution(calibrate)
-    calibrate.add_argument("--retry-failed", action="store_true", help="run failed verification runs again")
-    calibrate.set_defaults(func=_calibrate)
-
-    report = subparsers.add_parser(
-        "report", help="write the campaign's HTML report and its tables (CSV, JSON)",
+    report = add_command(
+        subparsers, "report", _report,
+        help="write the campaign's HTML report and its tables (CSV, JSON)",
         description="Write one self-contained HTML report with every table and figure, plus CSV "
                     "and JSON of each table, into the campaign's work folder.")
     _common(report)
     report.add_argument("--out", type=Path, help="report folder (default: WORKDIR/report)")
-    report.set_defaults(func=_report)
 
-    demo = subparsers.add_parser(
-        "demo", help="run the paper's two example campaigns end to end and print the report path",
+    demo = add_command(
+        subparsers, "demo", _demo,
+        help="run the paper's two example campaigns end to end and print the report path",
         description="Copy the residual-film-soil example campaigns into OUT, run them, calibrate "
                     "them and write the report.")
     demo.add_argument("--out", type=Path, default=Path("demo-output"), help="output folder (default: demo-output)")
     demo.add_argument("--profile", default="quick", help="bench profile: quick (default) or paper")
     _execution(demo, scheduler=False)
-    demo.set_defaults(func=_demo)
 
 
 def _common(parser: argparse.ArgumentParser) -> None:

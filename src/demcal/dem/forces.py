@@ -1,20 +1,26 @@
 """Contact drivers: loop over the neighbour list and the wall candidates.
 
-Only these loops iterate over contacts (over a range [lo, hi) of spheres, so the
-host can split the work between threads); each contact is evaluated by
-``contact.kernel.contact``. A pair slot ``p`` (sphere i, sphere j) writes
-``pair_out[p] = (F on i, torque on body(i) about its centre of mass, torque on
-body(j))`` and ``active[p]`` (only active slots are read); a wall slot ``q`` writes
-``wall_out[q] = (F on the body, torque on the body, torque on the wall about its
-origin)`` and ``wactive[q]``. Each slot is written by exactly one thread and
-``integrator.gather_kick`` sums them in a fixed order, so results are bitwise identical
-for any number of threads.
+Only these loops iterate over contacts (over a range [lo, hi) of spheres, so the host can
+split the work between threads); each contact is evaluated by ``contact.kernel.contact``
+through :func:`_at_contact`, which both drivers share.
+
+Where the results go (each slot is written by exactly one thread, and every sum is taken
+in a fixed order, so results are bitwise identical for any number of threads):
+
+* ``sacc[i]`` (per sphere i): the force on i and the torque on body(i) about its centre
+  of mass, summed over row i of the pair list (in row order) and then over i's wall
+  candidates. :func:`pair_forces` starts the sum, :func:`wall_forces` adds to it.
+* ``pair_out[p]`` for an active pair slot p = (i, j): the force on i (j gets the
+  opposite) and the torque on body(j); ``integrator.gather_kick`` adds those to body(j)
+  through the reverse index.
+* ``wall_out[q]`` for an active wall slot: the force on the body and the torque on the
+  wall about its origin (for :func:`wall_totals`).
 
 Geometry: ``n`` points from j (or the wall) to i, the overlap is
 ``delta = r_i + r_j - |x_i - x_j|`` (walls: ``r_i - d``), and the contact point is the
-middle of the overlap, ``x_c = x_i - (r_i - delta/2) n``. Velocities at the contact
-point include the bodies' rotation about their centres of mass; R* = r_i r_j/(r_i + r_j)
-from the sphere radii (r_i against a wall), m* from the body masses (m_i against a wall).
+middle of the overlap, ``x_c = x_i - (r_i - delta/2) n``. Velocities at the contact point
+include the bodies' rotation about their centres of mass; R* = r_i r_j/(r_i + r_j) from
+the sphere radii (r_i against a wall), m* from the body masses (m_i against a wall).
 """
 
 import math
@@ -26,20 +32,80 @@ from demcal.geometry.kernels import wall_distance
 from .contact.kernel import HIST_WIDTH, contact
 from .contact.registry import ROLLING_CONSTANT, ROLLING_EPSD
 
+ACC_WIDTH = 6   # sacc columns: force on the sphere (3), torque on its body (3)
+OUT_WIDTH = 6   # pair_out / wall_out columns: force on i (3), torque on the other side (3)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _at_contact(models, table, mat_i, mat_j, hist, h, dt, delta, nx, ny, nz, xi, yi, zi,
+                ri, bpos, bvel, bomega, bi, mi, iso_i, ox, oy, oz, vx, vy, vz,
+                wjx, wjy, wjz, mj, iso_j, r_eff, m_eff):
+    """Evaluate one overlapping contact of sphere i (body ``bi``) with a partner j whose
+    reference point (centre of mass or wall origin) is ``o``, with velocity ``v`` and
+    angular velocity ``wj``; ``mj`` = 0 for a wall (no rolling inertia on that side).
+
+    Returns the force on i (3), the torque on i's body about its centre of mass (3), the
+    moment of the force on j's side about ``o`` (3), and the rolling torques on i and
+    on j (3 + 3; the torque on i above includes i's).
+    """
+    a = ri - 0.5 * delta
+    cx = xi - a * nx
+    cy = yi - a * ny
+    cz = zi - a * nz
+    aix = cx - bpos[bi, 0]
+    aiy = cy - bpos[bi, 1]
+    aiz = cz - bpos[bi, 2]
+    ajx = cx - ox
+    ajy = cy - oy
+    ajz = cz - oz
+    wix = bomega[bi, 0]
+    wiy = bomega[bi, 1]
+    wiz = bomega[bi, 2]
+    vrx = (bvel[bi, 0] + wiy * aiz - wiz * aiy) - (vx + wjy * ajz - wjz * ajy)
+    vry = (bvel[bi, 1] + wiz * aix - wix * aiz) - (vy + wjz * ajx - wjx * ajz)
+    vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (vz + wjx * ajy - wjy * ajx)
+    li = 0.0
+    lj = 0.0
+    inv_ir = 0.0
+    if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
+        li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
+        inv_ir = 1.0 / (iso_i + mi * li * li)
+        if mj > 0.0:
+            lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
+            inv_ir += 1.0 / (iso_j + mj * lj * lj)
+    fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
+        models, table, mat_i, mat_j, hist, h, delta, nx, ny, nz, vrx, vry, vrz,
+        wix, wiy, wiz, wjx, wjy, wjz, li, lj, r_eff, m_eff, inv_ir, dt)
+    return (fx, fy, fz,
+            aiy * fz - aiz * fy + tix, aiz * fx - aix * fz + tiy, aix * fy - aiy * fx + tiz,
+            -(ajy * fz - ajz * fy), -(ajz * fx - ajx * fz), -(ajx * fy - ajy * fx),
+            tix, tiy, tiz, tjx, tjy, tjz)
+
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                binertia, bmat, row_start, nbr, hist, pair_out, active, lo, hi):
-    ns = spos.shape[0]
+                biso, bmat, row_start, nbr, hist, pair_out, active, sacc, lo, hi):
+    """Pair contacts of rows [lo, hi); starts ``sacc`` of those spheres.
+
+    ``biso[b]`` is the mean principal moment of inertia of body b (rolling inertia)."""
     for i in range(lo, hi):
         bi = sbody[i]
         ri = srad[i]
+        xi = spos[i, 0]
+        yi = spos[i, 1]
+        zi = spos[i, 2]
+        fsx = 0.0
+        fsy = 0.0
+        fsz = 0.0
+        tsx = 0.0
+        tsy = 0.0
+        tsz = 0.0
         for p in range(row_start[i], row_start[i + 1]):
             j = nbr[p]
             rj = srad[j]
-            dx = spos[i, 0] - spos[j, 0]
-            dy = spos[i, 1] - spos[j, 1]
-            dz = spos[i, 2] - spos[j, 2]
+            dx = xi - spos[j, 0]
+            dy = yi - spos[j, 1]
+            dz = zi - spos[j, 2]
             rs = ri + rj
             d2 = dx * dx + dy * dy + dz * dz
             if d2 >= rs * rs:
@@ -52,14 +118,17 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             active[p] = True
             bj = sbody[j]
             d = math.sqrt(d2)
+            inv_d = 1.0 / d
+            mi = bmass[bi]
+            mj = bmass[bj]
             delta = rs - d
-            nx = dx / d
-            ny = dy / d
-            nz = dz / d
+            nx = dx * inv_d
+            ny = dy * inv_d
+            nz = dz * inv_d
             a = ri - 0.5 * delta
-            cx = spos[i, 0] - a * nx
-            cy = spos[i, 1] - a * ny
-            cz = spos[i, 2] - a * nz
+            cx = xi - a * nx
+            cy = yi - a * ny
+            cz = zi - a * nz
             aix = cx - bpos[bi, 0]
             aiy = cy - bpos[bi, 1]
             aiz = cz - bpos[bi, 2]
@@ -75,44 +144,55 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             vrx = (bvel[bi, 0] + wiy * aiz - wiz * aiy) - (bvel[bj, 0] + wjy * ajz - wjz * ajy)
             vry = (bvel[bi, 1] + wiz * aix - wix * aiz) - (bvel[bj, 1] + wjz * ajx - wjx * ajz)
             vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (bvel[bj, 2] + wjx * ajy - wjy * ajx)
-            mi = bmass[bi]
-            mj = bmass[bj]
             li = 0.0
             lj = 0.0
             inv_ir = 0.0
             if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
                 li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
                 lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
-                ii = (binertia[bi, 0] + binertia[bi, 1] + binertia[bi, 2]) / 3.0
-                ij = (binertia[bj, 0] + binertia[bj, 1] + binertia[bj, 2]) / 3.0
-                inv_ir = 1.0 / (ii + mi * li * li) + 1.0 / (ij + mj * lj * lj)
+                inv_ir = 1.0 / (biso[bi] + mi * li * li) + 1.0 / (biso[bj] + mj * lj * lj)
             fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
                 models, table, bmat[bi], bmat[bj], hist, p, delta, nx, ny, nz,
                 vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz, li, lj,
                 ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
+            fsx += fx
+            fsy += fy
+            fsz += fz
+            tsx += aiy * fz - aiz * fy + tix
+            tsy += aiz * fx - aix * fz + tiy
+            tsz += aix * fy - aiy * fx + tiz
             pair_out[p, 0] = fx
             pair_out[p, 1] = fy
             pair_out[p, 2] = fz
-            pair_out[p, 3] = aiy * fz - aiz * fy + tix
-            pair_out[p, 4] = aiz * fx - aix * fz + tiy
-            pair_out[p, 5] = aix * fy - aiy * fx + tiz
-            pair_out[p, 6] = -(ajy * fz - ajz * fy) + tjx
-            pair_out[p, 7] = -(ajz * fx - ajx * fz) + tjy
-            pair_out[p, 8] = -(ajx * fy - ajy * fx) + tjz
+            pair_out[p, 3] = -(ajy * fz - ajz * fy) + tjx
+            pair_out[p, 4] = -(ajz * fx - ajx * fz) + tjy
+            pair_out[p, 5] = -(ajx * fy - ajy * fx) + tjz
+        sacc[i, 0] = fsx
+        sacc[i, 1] = fsy
+        sacc[i, 2] = fsz
+        sacc[i, 3] = tsx
+        sacc[i, 4] = tsy
+        sacc[i, 5] = tsz
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                binertia, bmat, wall_start, wid, whist, wall_out, wactive,
+                biso, bmat, wall_start, wid, whist, wall_out, wactive, sacc,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):
-    ns = spos.shape[0]
+    """Wall contacts of spheres [lo, hi); adds to ``sacc`` (after :func:`pair_forces`)."""
     for i in range(lo, hi):
+        q0 = wall_start[i]
+        q1 = wall_start[i + 1]
+        if q0 == q1:
+            continue
         bi = sbody[i]
         ri = srad[i]
-        for q in range(wall_start[i], wall_start[i + 1]):
+        xi = spos[i, 0]
+        yi = spos[i, 1]
+        zi = spos[i, 2]
+        for q in range(q0, q1):
             w = wid[q]
-            d, nx, ny, nz = wall_distance(wkind[w], wparams[w], spos[i, 0], spos[i, 1],
-                                          spos[i, 2])
+            d, nx, ny, nz = wall_distance(wkind[w], wparams[w], xi, yi, zi)
             delta = ri - d
             if delta <= 0.0:
                 if wactive[q]:
@@ -122,45 +202,26 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 continue
             whist[q, 7] = 1.0
             wactive[q] = True
-            a = ri - 0.5 * delta
-            cx = spos[i, 0] - a * nx
-            cy = spos[i, 1] - a * ny
-            cz = spos[i, 2] - a * nz
-            aix = cx - bpos[bi, 0]
-            aiy = cy - bpos[bi, 1]
-            aiz = cz - bpos[bi, 2]
-            ajx = cx - worigin[w, 0]
-            ajy = cy - worigin[w, 1]
-            ajz = cz - worigin[w, 2]
-            wix = bomega[bi, 0]
-            wiy = bomega[bi, 1]
-            wiz = bomega[bi, 2]
-            wjx = womega[w, 0]
-            wjy = womega[w, 1]
-            wjz = womega[w, 2]
-            vrx = (bvel[bi, 0] + wiy * aiz - wiz * aiy) - (wvel[w, 0] + wjy * ajz - wjz * ajy)
-            vry = (bvel[bi, 1] + wiz * aix - wix * aiz) - (wvel[w, 1] + wjz * ajx - wjx * ajz)
-            vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (wvel[w, 2] + wjx * ajy - wjy * ajx)
             mi = bmass[bi]
-            li = 0.0
-            inv_ir = 0.0
-            if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
-                li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
-                ii = (binertia[bi, 0] + binertia[bi, 1] + binertia[bi, 2]) / 3.0
-                inv_ir = 1.0 / (ii + mi * li * li)
-            fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
-                models, table, bmat[bi], wmat[w], whist, q, delta, nx, ny, nz,
-                vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz, li, 0.0,
-                ri, mi, inv_ir, dt)
+            fx, fy, fz, tix, tiy, tiz, mjx, mjy, mjz, rix, riy, riz, _, _, _ = _at_contact(
+                models, table, bmat[bi], wmat[w], whist, q, dt, delta, nx, ny, nz,
+                xi, yi, zi, ri, bpos, bvel, bomega, bi, mi, biso[bi],
+                worigin[w, 0], worigin[w, 1], worigin[w, 2],
+                wvel[w, 0], wvel[w, 1], wvel[w, 2], womega[w, 0], womega[w, 1],
+                womega[w, 2], 0.0, 0.0, ri, mi)
+            sacc[i, 0] += fx
+            sacc[i, 1] += fy
+            sacc[i, 2] += fz
+            sacc[i, 3] += tix
+            sacc[i, 4] += tiy
+            sacc[i, 5] += tiz
+            # the wall takes the reaction of i's rolling torque
             wall_out[q, 0] = fx
             wall_out[q, 1] = fy
             wall_out[q, 2] = fz
-            wall_out[q, 3] = aiy * fz - aiz * fy + tix
-            wall_out[q, 4] = aiz * fx - aix * fz + tiy
-            wall_out[q, 5] = aix * fy - aiy * fx + tiz
-            wall_out[q, 6] = -(ajy * fz - ajz * fy) - tix
-            wall_out[q, 7] = -(ajz * fx - ajx * fz) - tiy
-            wall_out[q, 8] = -(ajx * fy - ajy * fx) - tiz
+            wall_out[q, 3] = mjx - rix
+            wall_out[q, 4] = mjy - riy
+            wall_out[q, 5] = mjz - riz
 
 
 @njit(cache=True, error_model="numpy")
@@ -177,6 +238,6 @@ def wall_totals(wall_start, wid, wall_out, wactive, nw, out):
         out[w, 0] -= wall_out[q, 0]
         out[w, 1] -= wall_out[q, 1]
         out[w, 2] -= wall_out[q, 2]
-        out[w, 3] += wall_out[q, 6]
-        out[w, 4] += wall_out[q, 7]
-        out[w, 5] += wall_out[q, 8]
+        out[w, 3] += wall_out[q, 3]
+        out[w, 4] += wall_out[q, 4]
+        out[w, 5] += wall_out[q, 5]

@@ -53,13 +53,24 @@ def quat_mul(a0, a1, a2, a3, b0, b1, b2, b3):
 
 
 @njit(cache=True, error_model="numpy")
+def cos_sin(x):
+    """``(cos x, sin x)``; Taylor polynomials for |x| < 0.05 (the angle a body turns in
+    one step is far below that; truncation < 1e-17 relative), libm otherwise."""
+    if -0.05 < x < 0.05:
+        x2 = x * x
+        s = x * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0)))
+        c = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0)))
+        return c, s
+    return math.cos(x), math.sin(x)
+
+
+@njit(cache=True, error_model="numpy")
 def _axis_rotation(k, phi, q0, q1, q2, q3, l0, l1, l2):
     """Free rotation about principal axis k by angle phi: q <- q (x) exp(phi e_k / 2),
     L_b <- R_k(-phi) L_b."""
-    c = math.cos(0.5 * phi)
-    s = math.sin(0.5 * phi)
-    cf = math.cos(phi)
-    sf = math.sin(phi)
+    c, s = cos_sin(0.5 * phi)
+    cf = 1.0 - 2.0 * s * s   # cos(phi)
+    sf = 2.0 * s * c         # sin(phi)
     if k == 0:
         q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, s, 0.0, 0.0)
         l1, l2 = cf * l1 + sf * l2, -sf * l1 + cf * l2
@@ -91,9 +102,9 @@ def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
         w = math.sqrt(wx * wx + wy * wy + wz * wz)
         if w == 0.0:
             return q0, q1, q2, q3
-        a = 0.5 * w * dt
-        s = math.sin(a) / w
-        q0, q1, q2, q3 = quat_mul(math.cos(a), s * wx, s * wy, s * wz, q0, q1, q2, q3)
+        ca, sa = cos_sin(0.5 * w * dt)
+        s = sa / w
+        q0, q1, q2, q3 = quat_mul(ca, s * wx, s * wy, s * wz, q0, q1, q2, q3)
     else:
         l0, l1, l2 = quat_rotate_inv(q0, q1, q2, q3, lx, ly, lz)
         h = 0.5 * dt
@@ -107,11 +118,27 @@ def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _displacement(spos, sref, dsq, s, mx):
+    """Store sphere s's squared displacement since the last build; return the running max."""
+    ex = spos[s, 0] - sref[s, 0]
+    ey = spos[s, 1] - sref[s, 1]
+    ez = spos[s, 2] - sref[s, 2]
+    d = ex * ex + ey * ey + ez * ez
+    dsq[s] = d
+    if d != d:
+        return math.inf
+    return d if d > mx else mx
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
           bfixed, bstart, soffset, spos, sref, dsq, lo, hi):
-    """Half kick, drift and rotation of every body; refresh sphere positions."""
-    nb = bpos.shape[0]
+    """Half kick, drift and rotation of every body; refresh sphere positions.
+
+    Returns the largest squared displacement of a sphere since the last neighbour build
+    over the range (infinite if a position is NaN, so the host rebuilds and reports it)."""
     h = 0.5 * dt
+    mx = 0.0
     for b in range(lo, hi):
         if bfixed[b]:
             for s in range(bstart[b], bstart[b + 1]):
@@ -132,10 +159,7 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
             bomega[b, 2] = bangmom[b, 2] * ii
             for k in range(3):
                 spos[s0, k] = bpos[b, k]
-            ex = spos[s0, 0] - sref[s0, 0]
-            ey = spos[s0, 1] - sref[s0, 1]
-            ez = spos[s0, 2] - sref[s0, 2]
-            dsq[s0] = ex * ex + ey * ey + ez * ez
+            mx = _displacement(spos, sref, dsq, s0, mx)
             continue
         i0 = binertia[b, 0]
         i1 = binertia[b, 1]
@@ -160,18 +184,16 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
             spos[s, 0] = bpos[b, 0] + ox
             spos[s, 1] = bpos[b, 1] + oy
             spos[s, 2] = bpos[b, 2] + oz
-            ex = spos[s, 0] - sref[s, 0]
-            ey = spos[s, 1] - sref[s, 1]
-            ez = spos[s, 2] - sref[s, 2]
-            dsq[s] = ex * ex + ey * ey + ez * ez
+            mx = _displacement(spos, sref, dsq, s, mx)
+    return mx
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                binertia, bfixed, bstart, row_start, pair_out, active, rev_start, rev_pair,
-                wall_start, wall_out, wactive, kick, lo, hi):
-    """Sum contact forces and torques per body, add gravity, half kick (if ``kick``)."""
-    nb = bvel.shape[0]
+                binertia, bfixed, bstart, sacc, pair_out, active, rev_start, rev_pair,
+                kick, lo, hi):
+    """Sum contact forces and torques per body (each sphere's own sums ``sacc``, then its
+    reverse pair slots, in a fixed order), add gravity, half kick (if ``kick``)."""
     h = 0.5 * dt
     for b in range(lo, hi):
         m = bmass[b]
@@ -182,34 +204,21 @@ def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmas
         ty = 0.0
         tz = 0.0
         for s in range(bstart[b], bstart[b + 1]):
-            for p in range(row_start[s], row_start[s + 1]):
-                if not active[p]:
-                    continue
-                fx += pair_out[p, 0]
-                fy += pair_out[p, 1]
-                fz += pair_out[p, 2]
-                tx += pair_out[p, 3]
-                ty += pair_out[p, 4]
-                tz += pair_out[p, 5]
+            fx += sacc[s, 0]
+            fy += sacc[s, 1]
+            fz += sacc[s, 2]
+            tx += sacc[s, 3]
+            ty += sacc[s, 4]
+            tz += sacc[s, 5]
             for q in range(rev_start[s], rev_start[s + 1]):
                 p = rev_pair[q]
-                if not active[p]:
-                    continue
-                fx -= pair_out[p, 0]
-                fy -= pair_out[p, 1]
-                fz -= pair_out[p, 2]
-                tx += pair_out[p, 6]
-                ty += pair_out[p, 7]
-                tz += pair_out[p, 8]
-            for q in range(wall_start[s], wall_start[s + 1]):
-                if not wactive[q]:
-                    continue
-                fx += wall_out[q, 0]
-                fy += wall_out[q, 1]
-                fz += wall_out[q, 2]
-                tx += wall_out[q, 3]
-                ty += wall_out[q, 4]
-                tz += wall_out[q, 5]
+                if active[p]:
+                    fx -= pair_out[p, 0]
+                    fy -= pair_out[p, 1]
+                    fz -= pair_out[p, 2]
+                    tx += pair_out[p, 3]
+                    ty += pair_out[p, 4]
+                    tz += pair_out[p, 5]
         bforce[b, 0] = fx
         bforce[b, 1] = fy
         bforce[b, 2] = fz

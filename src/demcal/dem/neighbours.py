@@ -7,11 +7,13 @@ cells), so any ratio of radii works (3:1 and beyond; large ratios only cost more
 per cell). The list is rebuilt when some sphere has moved more than ``skin / 2`` since
 the last build (or a wall has travelled that far).
 
-Building is two passes (jax-md pattern adapted to numba): ``count_*`` fills per-sphere
-counts in parallel, the host takes the prefix sum and reallocates the CSR arrays when
-the capacity is too small (growth 1.5x), then ``fill_*`` writes the rows. Every row is
-written by one thread in a fixed order, so the list is identical for any thread count.
-Contact history is carried over a rebuild by matching pairs (``carry_history``).
+Building is one search pass into a fixed-width scratch table (one row per sphere, kept
+sorted by neighbour index), then the host takes the prefix sum of the counts,
+reallocates the CSR arrays when the capacity is too small (growth 1.5x) and packs the
+rows (``pack_rows``); a row wider than the table makes the host widen it and search
+again (rare: the width follows the longest row seen). Every row is written by one
+thread in a fixed order, so the list is identical for any thread count. Contact history
+is carried over a rebuild by matching pairs (``carry_history``).
 
 Wall candidates use the same CSR layout per sphere: wall rows whose distance (from
 ``demcal.geometry.kernels.wall_distance``) is below ``r + skin``.
@@ -81,12 +83,15 @@ def build_cells(spos, srad, skin, max_cells):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
-              row_start, nbr, fill, lo, hi):
-    """Count (``fill=False``, counts into ``row_start[i+1]``) or write the half list."""
-    ns = spos.shape[0]
+              tmp, counts, lo, hi):
+    """One pass of the cell search: row i's neighbours j > i (other bodies, within
+    ``r_i + r_j + skin``) go to ``tmp[i, :]`` sorted by j, their number to ``counts[i]``.
+    A row longer than ``tmp.shape[1]`` is counted in full but stored only up to that
+    width; the host then widens ``tmp`` and searches again."""
     d0 = dims[0]
     d1 = dims[1]
     d2 = dims[2]
+    width = tmp.shape[1]
     for i in range(lo, hi):
         c = cell_of[i]
         cx = c % d0
@@ -98,9 +103,6 @@ def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
         ri = srad[i] + skin
         bi = sbody[i]
         n = 0
-        base = 0
-        if fill:
-            base = row_start[i]
         for dz in range(-1, 2):
             z = cz + dz
             if z < 0 or z >= d2:
@@ -123,46 +125,44 @@ def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
                         ddz = spos[j, 2] - zi
                         cut = ri + srad[j]
                         if ddx * ddx + ddy * ddy + ddz * ddz < cut * cut:
-                            if fill:
-                                nbr[base + n] = j
+                            if n < width:
+                                # insertion into the sorted row (rows are short)
+                                q = n - 1
+                                while q >= 0 and tmp[i, q] > j:
+                                    tmp[i, q + 1] = tmp[i, q]
+                                    q -= 1
+                                tmp[i, q + 1] = j
                             n += 1
-        if not fill:
-            row_start[i + 1] = n
+        counts[i] = n
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def sort_rows(row_start, nbr, lo, hi):
-    """Sort each row by neighbour index (insertion sort; rows are short)."""
-    ns = row_start.shape[0] - 1
+def pack_rows(tmp, row_start, nbr, lo, hi):
+    """Copy the rows of ``tmp`` into the CSR array ``nbr`` at ``row_start``."""
     for i in range(lo, hi):
         a = row_start[i]
-        b = row_start[i + 1]
-        for p in range(a + 1, b):
-            v = nbr[p]
-            q = p - 1
-            while q >= a and nbr[q] > v:
-                nbr[q + 1] = nbr[q]
-                q -= 1
-            nbr[q + 1] = v
+        for k in range(row_start[i + 1] - a):
+            nbr[a + k] = tmp[i, k]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, old_of_new,
-                  lo, hi):
-    """Copy each surviving pair's history row from the old list to the new one.
+                  remap, lo, hi):
+    """Copy each surviving contact's history row from the old list to the new one.
 
-    ``old_of_new[i]`` is the old index of new sphere i (-1 for a new sphere). Renumbering
-    is monotone (removal keeps order, insertion appends), so pair (i, j), i < j, was in
-    old row ``old_of_new[i]``.
+    ``old_of_new[i]`` is the old index of new sphere i (-1 for a new sphere). Pair lists
+    (``remap`` true): renumbering is monotone (removal keeps order, insertion appends),
+    so pair (i, j), i < j, was in old row ``old_of_new[i]`` with neighbour
+    ``old_of_new[j]``. Wall lists (``remap`` false): the entries are wall rows, matched
+    as they are.
     """
-    ns = new_start.shape[0] - 1
     w = new_hist.shape[1]
     for i in range(lo, hi):
         oi = old_of_new[i]
         for p in range(new_start[i], new_start[i + 1]):
             found = -1
             if oi >= 0:
-                oj = old_of_new[new_nbr[p]]
+                oj = old_of_new[new_nbr[p]] if remap else new_nbr[p]
                 if oj >= 0:
                     for q in range(old_start[oi], old_start[oi + 1]):
                         if old_nbr[q] == oj:
@@ -196,19 +196,18 @@ def reverse_index(row_start, nbr, rev_start, rev_pair):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def wall_rows(spos, srad, skin, wkind, wparams, waabb, row_start, wid, fill, lo, hi):
-    """Count or write, per sphere, the wall rows within ``r + skin``."""
-    ns = spos.shape[0]
+def wall_rows(spos, srad, skin, wkind, wparams, waabb, tmp, counts, lo, hi):
+    """Per sphere, the wall rows within ``r + skin`` into ``tmp[i, :]`` (in wall order)
+    and their number into ``counts[i]`` (stored up to ``tmp.shape[1]``, as
+    :func:`pair_rows`)."""
     nw = wkind.shape[0]
+    width = tmp.shape[1]
     for i in range(lo, hi):
         x = spos[i, 0]
         y = spos[i, 1]
         z = spos[i, 2]
         reach = srad[i] + skin
         n = 0
-        base = 0
-        if fill:
-            base = row_start[i]
         for w in range(nw):
             if (x < waabb[w, 0] - reach or y < waabb[w, 1] - reach or z < waabb[w, 2] - reach
                     or x > waabb[w, 3] + reach or y > waabb[w, 4] + reach
@@ -216,11 +215,10 @@ def wall_rows(spos, srad, skin, wkind, wparams, waabb, row_start, wid, fill, lo,
                 continue
             d, nx, ny, nz = wall_distance(wkind[w], wparams[w], x, y, z)
             if d < reach:
-                if fill:
-                    wid[base + n] = w
+                if n < width:
+                    tmp[i, n] = w
                 n += 1
-        if not fill:
-            row_start[i + 1] = n
+        counts[i] = n
 
 
 def prefix_sum(row_start):
@@ -233,27 +231,3 @@ def prefix_sum(row_start):
 def grown(capacity: int, needed: int) -> int:
     """New capacity when ``needed`` entries do not fit (1.5x growth)."""
     return max(needed, int(math.ceil(1.5 * max(capacity, 16))))
-
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def carry_wall_history(new_start, new_wid, new_hist, old_start, old_wid, old_hist,
-                       old_of_new, lo, hi):
-    """Carry wall-contact history by matching (sphere, wall row)."""
-    ns = new_start.shape[0] - 1
-    w = new_hist.shape[1]
-    for i in range(lo, hi):
-        oi = old_of_new[i]
-        for q in range(new_start[i], new_start[i + 1]):
-            found = -1
-            if oi >= 0:
-                for r in range(old_start[oi], old_start[oi + 1]):
-                    if old_wid[r] == new_wid[q]:
-                        found = r
-                        break
-            if found >= 0:
-                for k in range(w):
-                    new_hist[q, k] = old_hist[found, k]
-            else:
-                for k in range(w):
-                    new_hist[q, k] = 0.0

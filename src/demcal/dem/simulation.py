@@ -18,11 +18,12 @@ from demcal.particles.materials import MaterialTable
 from . import forces as _forces
 from . import integrator as _integ
 from . import neighbours as _nl
+from . import stepper as _stepper
 from . import timestep as _ts
 from .contact.kernel import HIST_WIDTH
 from .contact.registry import ContactModel
 
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
 
 #: Compute backends present. The kernels are written so the same source can be compiled
 #: with numba.cuda later; only the numba CPU backend exists today.
@@ -85,6 +86,11 @@ def _empty_walls():
                 velocity=np.zeros((0, 3)), omega=np.zeros((0, 3)),
                 origin=np.zeros((0, 3)), aabb=np.zeros((0, 6)),
                 material=np.zeros(0, np.int32), group=np.zeros(0, np.int32))
+
+
+def _mean_inertia(inertia):
+    """Mean principal moment per body (the rolling inertia of Ai et al. 2011)."""
+    return (inertia[:, 0] + inertia[:, 1] + inertia[:, 2]) / 3.0
 
 
 def _random_quaternions(n, rng):
@@ -183,6 +189,7 @@ class Simulation:
         self._pool = None
         self.walls = walls
         self.time = 0.0
+        self.step_count = 0
         self._wall_arrays()
         nmat = len(self.materials)
         if self._w["material"].size and (self._w["material"].min() < 0
@@ -190,8 +197,6 @@ class Simulation:
             raise ConfigError(f"a wall's material index is out of range (there are {nmat} "
                               "materials).")
         self.templates = []
-        self.time = 0.0
-        self.step_count = 0
         self.escaped = 0
         self._alloc_bodies(0, 0)
         self._alloc_lists(0, 0, 0)
@@ -201,6 +206,8 @@ class Simulation:
         self._needs_rebuild = True
         self._forces_valid = False
         self.rebuilds = 0
+        self._row_width = 16   # scratch width of the neighbour search (grows as needed)
+        self._wall_width = 4
 
     # ------------------------------------------------------------------ allocation --
     def _alloc_bodies(self, nb, ns):
@@ -208,21 +215,22 @@ class Simulation:
                        quat=np.zeros((nb, 4)), angmom=np.zeros((nb, 3)),
                        omega=np.zeros((nb, 3)), force=np.zeros((nb, 3)),
                        torque=np.zeros((nb, 3)), mass=np.zeros(nb),
-                       inertia=np.zeros((nb, 3)), mat=np.zeros(nb, np.int64),
+                       inertia=np.zeros((nb, 3)), iso=np.zeros(nb),
+                       mat=np.zeros(nb, np.int64),
                        template=np.zeros(nb, np.int64), scale=np.zeros(nb),
                        fixed=np.zeros(nb, np.bool_), start=np.zeros(nb + 1, np.int64))
         self._s = dict(body=np.zeros(ns, np.int64), offset=np.zeros((ns, 3)),
                        radius=np.zeros(ns), pos=np.zeros((ns, 3)), ref=np.zeros((ns, 3)),
-                       dsq=np.zeros(ns))
+                       dsq=np.zeros(ns), acc=np.zeros((ns, _forces.ACC_WIDTH)))
 
     def _alloc_lists(self, ns, cap, wcap):
         self._p = dict(start=np.zeros(ns + 1, np.int64), nbr=np.zeros(cap, np.int64),
-                       hist=np.zeros((cap, HIST_WIDTH)), out=np.zeros((cap, 9)),
-                       act=np.zeros(cap, np.bool_),
+                       hist=np.zeros((cap, HIST_WIDTH)),
+                       out=np.zeros((cap, _forces.OUT_WIDTH)), act=np.zeros(cap, np.bool_),
                        rev_start=np.zeros(ns + 1, np.int64), rev=np.zeros(cap, np.int64))
         self._q = dict(start=np.zeros(ns + 1, np.int64), wid=np.zeros(wcap, np.int64),
-                       hist=np.zeros((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)),
-                       act=np.zeros(wcap, np.bool_))
+                       hist=np.zeros((wcap, HIST_WIDTH)),
+                       out=np.zeros((wcap, _forces.OUT_WIDTH)), act=np.zeros(wcap, np.bool_))
 
     def _wall_arrays(self):
         w = self.walls
@@ -367,6 +375,7 @@ class Simulation:
             torque=np.concatenate([b["torque"], np.zeros((n, 3))]),
             mass=np.concatenate([b["mass"], mass]),
             inertia=np.concatenate([b["inertia"], inertia]),
+            iso=np.concatenate([b["iso"], _mean_inertia(inertia)]),
             mat=np.concatenate([b["mat"], np.full(n, mi, np.int64)]),
             template=np.concatenate([b["template"], np.full(n, tid, np.int64)]),
             scale=np.concatenate([b["scale"], sc]),
@@ -387,7 +396,8 @@ class Simulation:
                        radius=np.concatenate([s["radius"], rad]),
                        pos=np.concatenate([s["pos"], spos]),
                        ref=np.concatenate([s["ref"], spos]),
-                       dsq=np.zeros(ns0 + n * k))
+                       dsq=np.zeros(ns0 + n * k),
+                       acc=np.zeros((ns0 + n * k, _forces.ACC_WIDTH)))
         # pad the per-sphere CSR starts: new spheres have empty rows until the rebuild
         p, q = self._p, self._q
         for d in (p, q):
@@ -437,17 +447,19 @@ class Simulation:
         so the result does not depend on the number of threads.
         """
         t = self.threads
-        if t <= 1 or n < self.parallel_threshold:
-            fn(*args, 0, n)
-            return
+        if not self._threaded(n):
+            return [fn(*args, 0, n)]
         if self._pool is None:
             self._pool = ThreadPoolExecutor(max_workers=t - 1,
                                             thread_name_prefix="demcal-dem")
         bounds = [n * k // t for k in range(t + 1)]
         futs = [self._pool.submit(fn, *args, bounds[k], bounds[k + 1]) for k in range(t - 1)]
-        fn(*args, bounds[t - 1], bounds[t])
-        for f in futs:
-            f.result()
+        last = fn(*args, bounds[t - 1], bounds[t])
+        return [f.result() for f in futs] + [last]
+
+    def _threaded(self, n):
+        """Whether loops over ``n`` items are split between threads."""
+        return self.threads > 1 and n >= self.parallel_threshold
 
     # ------------------------------------------------------------------ time step --
     @property
@@ -525,14 +537,13 @@ class Simulation:
             n_old = old_p["start"].shape[0] - 1
             old_of_new[old_of_new >= n_old] = -1
         start = np.zeros(ns + 1, np.int64)
-        wstart = np.zeros(ns + 1, np.int64)
         if ns:
             max_cells = max(8 * ns, 1000)
             lo, h, dims, cell_of, cell_start, cell_order = _nl.build_cells(
                 s["pos"], s["radius"], skin, max_cells)
-            dummy = np.zeros(0, np.int64)
-            self._par(_nl.pair_rows, ns, s["pos"], s["radius"], s["body"], skin, dims,
-                      cell_of, cell_start, cell_order, start, dummy, False)
+            tmp = self._search(_nl.pair_rows, "_row_width", ns, start, s["pos"],
+                               s["radius"], s["body"], skin, dims, cell_of, cell_start,
+                               cell_order)
         npair = _nl.prefix_sum(start)
         cap = old_p["nbr"].shape[0]
         if npair > cap:
@@ -543,15 +554,14 @@ class Simulation:
             new_p["start"] = start
         else:
             new_p = dict(start=start, nbr=np.empty(cap, np.int64),
-                         hist=np.empty((cap, HIST_WIDTH)), out=np.zeros((cap, 9)),
+                         hist=np.empty((cap, HIST_WIDTH)),
+                         out=np.zeros((cap, _forces.OUT_WIDTH)),
                          act=np.zeros(cap, np.bool_), rev=np.empty(cap, np.int64))
         new_p["rev_start"] = np.zeros(ns + 1, np.int64)
         if ns:
-            self._par(_nl.pair_rows, ns, s["pos"], s["radius"], s["body"], skin, dims,
-                      cell_of, cell_start, cell_order, start, new_p["nbr"], True)
-            self._par(_nl.sort_rows, ns, start, new_p["nbr"])
+            self._par(_nl.pack_rows, ns, tmp, start, new_p["nbr"])
             self._par(_nl.carry_history, ns, start, new_p["nbr"], new_p["hist"],
-                      old_p["start"], old_p["nbr"], old_p["hist"], old_of_new)
+                      old_p["start"], old_p["nbr"], old_p["hist"], old_of_new, True)
             _nl.reverse_index(start, new_p["nbr"], new_p["rev_start"], new_p["rev"])
         new_p["act"][:npair] = new_p["hist"][:npair, 7] != 0.0
         new_p["act"][npair:] = False
@@ -559,21 +569,21 @@ class Simulation:
         self._p = new_p
         # walls
         w = self._w
+        wstart = np.zeros(ns + 1, np.int64)
         if ns:
-            self._par(_nl.wall_rows, ns, s["pos"], s["radius"], skin, w["kind"],
-                      w["params"], w["aabb"], wstart, np.zeros(0, np.int64), False)
+            wtmp = self._search(_nl.wall_rows, "_wall_width", ns, wstart, s["pos"],
+                                s["radius"], skin, w["kind"], w["params"], w["aabb"])
         nq = _nl.prefix_sum(wstart)
         wcap = max(old_q["wid"].shape[0], 0)
         if nq > wcap:
             wcap = _nl.grown(wcap, nq)
         new_q = dict(start=wstart, wid=np.empty(wcap, np.int64),
-                     hist=np.empty((wcap, HIST_WIDTH)), out=np.zeros((wcap, 9)),
-                     act=np.zeros(wcap, np.bool_))
+                     hist=np.empty((wcap, HIST_WIDTH)),
+                     out=np.zeros((wcap, _forces.OUT_WIDTH)), act=np.zeros(wcap, np.bool_))
         if ns:
-            self._par(_nl.wall_rows, ns, s["pos"], s["radius"], skin, w["kind"],
-                      w["params"], w["aabb"], wstart, new_q["wid"], True)
-            self._par(_nl.carry_wall_history, ns, wstart, new_q["wid"], new_q["hist"],
-                      old_q["start"], old_q["wid"], old_q["hist"], old_of_new)
+            self._par(_nl.pack_rows, ns, wtmp, wstart, new_q["wid"])
+            self._par(_nl.carry_history, ns, wstart, new_q["wid"], new_q["hist"],
+                      old_q["start"], old_q["wid"], old_q["hist"], old_of_new, False)
         new_q["act"][:nq] = new_q["hist"][:nq, 7] != 0.0
         self._q = new_q
         s["ref"][:] = s["pos"]
@@ -582,25 +592,39 @@ class Simulation:
         self._needs_rebuild = False
         self.rebuilds += 1
 
+    def _search(self, kernel, width_attr, ns, start, *args):
+        """Run a one-pass neighbour search ``kernel(*args, tmp, counts, lo, hi)`` into a
+        scratch table of width ``self.<width_attr>``, widening it and searching again when
+        a row did not fit; leaves the counts in ``start[1:]`` and returns the table."""
+        counts = start[1:]
+        while True:
+            width = getattr(self, width_attr)
+            tmp = np.empty((ns, width), np.int64)
+            self._par(kernel, ns, *args, tmp, counts)
+            longest = int(counts.max()) if ns else 0
+            if longest <= width:
+                return tmp
+            setattr(self, width_attr, int(1.25 * longest) + 1)
+
     # ------------------------------------------------------------------ stepping --
     def _compute_forces(self, kick):
         b, s, p, q, w = self._b, self._s, self._p, self._q, self._w
         dt = self.dt
-        if self.n_spheres:
-            ns = self.n_spheres
+        ns = self.n_spheres
+        if ns:
             self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"],
                       s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
-                      b["inertia"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
-                      p["act"])
+                      b["iso"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
+                      p["act"], s["acc"])
             self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"],
                       s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
-                      b["inertia"], b["mat"], q["start"], q["wid"], q["hist"], q["out"],
-                      q["act"], w["kind"], w["params"], w["velocity"], w["omega"],
-                      w["origin"], w["material"])
+                      b["iso"], b["mat"], q["start"], q["wid"], q["hist"], q["out"],
+                      q["act"], s["acc"], w["kind"], w["params"], w["velocity"],
+                      w["omega"], w["origin"], w["material"])
         self._par(_integ.gather_kick, self.n_particles, dt, self.gravity, b["vel"],
                   b["quat"], b["angmom"], b["omega"], b["force"], b["torque"], b["mass"],
-                  b["inertia"], b["fixed"], b["start"], p["start"], p["out"], p["act"],
-                  p["rev_start"], p["rev"], q["start"], q["out"], q["act"], kick)
+                  b["inertia"], b["fixed"], b["start"], s["acc"], p["out"], p["act"],
+                  p["rev_start"], p["rev"], kick)
         self._forces_valid = True
 
     def _prepare(self):
@@ -611,14 +635,20 @@ class Simulation:
             self._compute_forces(False)
 
     def _drift(self):
+        """One drift; returns the largest sphere displacement since the last build [m]."""
         b, s = self._b, self._s
-        self._par(_integ.drift, self.n_particles, self.dt, b["pos"], b["vel"], b["quat"],
-                  b["angmom"], b["omega"], b["force"], b["torque"], b["mass"], b["inertia"],
-                  b["fixed"], b["start"], s["offset"], s["pos"], s["ref"], s["dsq"])
+        res = self._par(_integ.drift, self.n_particles, self.dt, b["pos"], b["vel"],
+                        b["quat"], b["angmom"], b["omega"], b["force"], b["torque"],
+                        b["mass"], b["inertia"], b["fixed"], b["start"], s["offset"],
+                        s["pos"], s["ref"], s["dsq"])
+        return math.sqrt(max(res))
 
-    def _max_disp(self):
-        d = self._s["dsq"]
-        return math.sqrt(float(d.max())) if d.size else 0.0
+    def _walls_need_update(self):
+        """Whether some wall must be re-placed before the next step (a continuous motion,
+        or a wall whose motion changed since it was last placed)."""
+        w = self.walls
+        return (self._walls_moving and w is not None
+                and any(g.motion.moving for g in getattr(w, "walls", ())))
 
     def _advance(self, nsteps):
         """Advance exactly ``nsteps`` steps."""
@@ -635,33 +665,71 @@ class Simulation:
         self._prepare()
         dt = self.dt
         half_skin = 0.5 * self.skin
-        moving = self._walls_moving
-        for _ in range(nsteps):
-            self._drift()
-            self.time += dt
-            self.step_count += 1
-            if moving:
+        done = 0
+        while done < nsteps:
+            if self._walls_need_update():
+                # a moving wall: one step at a time, the walls placed before each force
+                disp = self._drift()
+                self.time += dt
+                self.step_count += 1
+                done += 1
                 self._move_walls(dt)
-            if self._max_disp() + self._wall_travel > half_skin or self._needs_rebuild:
+                if disp + self._wall_travel > half_skin or self._needs_rebuild:
+                    self._rebuild()
+                self._compute_forces(True)
+                continue
+            per_step = self._wall_speed() * dt
+            if self._threaded(self.n_particles):
+                k, rebuild = 1, False
+                disp = self._drift()
+                self.time += dt
+                self._wall_travel += per_step
+                rebuild = disp + self._wall_travel > half_skin
+                if not rebuild:
+                    self._compute_forces(True)
+            else:
+                k, rebuild, self.time, self._wall_travel = self._run_compiled(
+                    nsteps - done, half_skin, per_step)
+            self.step_count += k
+            done += k
+            if rebuild or self._needs_rebuild:
                 self._rebuild()
-            self._compute_forces(True)
+                self._compute_forces(True)
+
+    def _run_compiled(self, nsteps, half_skin, per_step):
+        """Up to ``nsteps`` steps in one compiled call (:mod:`demcal.dem.stepper`)."""
+        b, s, p, q, w = self._b, self._s, self._p, self._q, self._w
+        return _stepper.run_steps(
+            nsteps, self.dt, self.time, self.gravity, self._models, self._table, half_skin,
+            self._wall_travel, per_step,
+            b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"], b["force"], b["torque"],
+            b["mass"], b["inertia"], b["iso"], b["mat"], b["fixed"], b["start"],
+            s["body"], s["offset"], s["radius"], s["pos"], s["ref"], s["dsq"], s["acc"],
+            p["start"], p["nbr"], p["hist"], p["out"], p["act"], p["rev_start"], p["rev"],
+            q["start"], q["wid"], q["hist"], q["out"], q["act"],
+            w["kind"], w["params"], w["velocity"], w["omega"], w["origin"], w["material"])
+
+    def _wall_speed(self):
+        """Upper bound of the speed [m/s] of any wall point within reach of a sphere."""
+        vel = self._w["velocity"]
+        om = self._w["omega"]
+        if not vel.size or not (np.any(vel) or np.any(om)):
+            return 0.0
+        sp = self._s["pos"]
+        lo, hi = sp.min(axis=0), sp.max(axis=0)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])
+        reach = np.linalg.norm(corners[None, :, :] - self._w["origin"][:, None, :],
+                               axis=2).max(axis=1) + self.skin
+        speed = np.linalg.norm(vel, axis=1) + np.linalg.norm(om, axis=1) * reach
+        return float(speed.max())
 
     def _move_walls(self, dt):
         w = self.walls
         w.update(self.time)
         for key in ("params", "velocity", "omega", "origin", "aabb"):
             self._w[key][...] = getattr(w, key)
-        vel = self._w["velocity"]
-        om = self._w["omega"]
-        if vel.size:
-            sp = self._s["pos"]
-            lo, hi = sp.min(axis=0), sp.max(axis=0)
-            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                                for z in (lo[2], hi[2])])
-            reach = np.linalg.norm(corners[None, :, :] - self._w["origin"][:, None, :],
-                                   axis=2).max(axis=1) + self.skin
-            speed = np.linalg.norm(vel, axis=1) + np.linalg.norm(om, axis=1) * reach
-            self._wall_travel += float(speed.max()) * dt
+        self._wall_travel += self._wall_speed() * dt
 
     def run(self, duration=None, steps=None, reporters=()):
         """Advance by ``duration`` [s] (rounded to whole steps) or ``steps``.
@@ -791,9 +859,17 @@ class Simulation:
             self._q = {k[2:]: z[k].copy() for k in z.files if k.startswith("q_")}
             sc = z["scalars"]
             self.gravity = z["gravity"].copy()
-        for d in (self._p, self._q):
-            if "act" not in d:  # written before the activity flags existed
-                d["act"] = d["hist"][:, 7] != 0.0
+        if int(sc[7]) < 2:
+            # format 1 (before per-sphere force sums): rebuild the derived arrays; the
+            # forces are evaluated again on the next step (not bit-identical)
+            self._b["iso"] = _mean_inertia(self._b["inertia"])
+            self._s["acc"] = np.zeros((self._s["pos"].shape[0], _forces.ACC_WIDTH))
+            for d in (self._p, self._q):
+                d["out"] = np.zeros((d["hist"].shape[0], _forces.OUT_WIDTH))
+                if "act" not in d:
+                    d["act"] = d["hist"][:, 7] != 0.0
+            sc = sc.copy()
+            sc[5] = 0.0
         self.time = float(sc[0])
         self.step_count = int(sc[1])
         self._dt = float(sc[2])

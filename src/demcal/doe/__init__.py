@@ -7,13 +7,7 @@ named :class:`Factor` objects, converts coded <-> actual levels and randomises t
 order; :mod:`demcal.doe.io` reads and writes design CSV files.
 """
 
-from demcal.doe.design import Design
-from demcal.doe.designs import (
-    BOX_BEHNKEN_BLOCKS, BOX_BEHNKEN_RUNS, box_behnken, ccd_alpha, central_composite,
-    fractional_factorial, full_factorial, plackett_burman, steepest_ascent,
-)
-from demcal.doe.factors import Factor, coded_factors, default_names, parse_factor
-from demcal.doe.io import read_design_csv, write_design_csv
+from demcal._lazy import lazy_exports
 
 __all__ = [
     "Design", "Factor", "parse_factor", "coded_factors", "default_names",
@@ -21,3 +15,12 @@ __all__ = [
     "fractional_factorial", "plackett_burman", "steepest_ascent",
     "BOX_BEHNKEN_BLOCKS", "BOX_BEHNKEN_RUNS", "read_design_csv", "write_design_csv",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "design": ["Design"],
+    "designs": ["BOX_BEHNKEN_BLOCKS", "BOX_BEHNKEN_RUNS", "box_behnken", "ccd_alpha",
+                "central_composite", "fractional_factorial", "full_factorial", "plackett_burman",
+                "steepest_ascent"],
+    "factors": ["Factor", "coded_factors", "default_names", "parse_factor"],
+    "io": ["read_design_csv", "write_design_csv"],
+})

@@ -3,24 +3,20 @@
 from __future__ import annotations
 
 import sys
+from typing import TYPE_CHECKING
 
-import numpy as np
-
-from demcal.doe.design import Design
-from demcal.doe.designs import (
-    box_behnken, central_composite, fractional_factorial, full_factorial, plackett_burman,
-    steepest_ascent,
-)
-from demcal.doe.factors import coded_factors, default_names, parse_factor
-from demcal.doe.io import write_design_csv
+from demcal._cliutil import add_command, read_runs_from_args
 from demcal.errors import ConfigError
+
+if TYPE_CHECKING:
+    from demcal.doe.design import Design
 
 KINDS = ("box-behnken", "ccd", "factorial", "fractional", "plackett-burman", "steepest-ascent")
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "design",
+    p = add_command(
+        subparsers, "design", run,
         help="generate a design of experiments (Box-Behnken, CCD, factorial, ...)",
         description="Generate a design of experiments and write it as CSV (actual levels, "
         "randomised run order, factor levels in '# factor' comment lines).",
@@ -49,10 +45,11 @@ def register(subparsers) -> None:
     p.add_argument("--steps", type=int, default=5, help="steepest-ascent: number of steps")
     p.add_argument("--descent", action="store_true", help="steepest-ascent: go downhill")
     p.add_argument("-o", "--output", help="CSV file to write (default: standard output)")
-    p.set_defaults(func=run)
 
 
 def _factors(args):
+    from demcal.doe.factors import coded_factors, default_names, parse_factor
+
     if args.factor:
         factors = [parse_factor(s) for s in args.factor]
         if args.n_factors and args.n_factors != len(factors):
@@ -65,6 +62,13 @@ def _factors(args):
 
 def build_design(args) -> Design:
     """The :class:`Design` described by parsed ``demcal design`` arguments."""
+    import numpy as np
+
+    from demcal.doe.design import Design
+    from demcal.doe.designs import (
+        box_behnken, central_composite, fractional_factorial, full_factorial, plackett_burman,
+    )
+
     if args.kind == "steepest-ascent":
         return _steepest(args)
     factors = _factors(args)
@@ -91,13 +95,13 @@ def build_design(args) -> Design:
 
 
 def _steepest(args) -> Design:
-    from demcal.rsm.data import read_runs
+    from demcal.doe.design import Design
+    from demcal.doe.designs import steepest_ascent
     from demcal.rsm.fit import fit_response_surface
 
     if not args.runs_csv or not args.response:
         raise ConfigError("steepest-ascent needs the runs CSV of a first-order design and --response.")
-    levels = {f.name: f for f in (parse_factor(s) for s in args.factor)}
-    runs = read_runs(args.runs_csv, [args.response], None, levels)
+    runs = read_runs_from_args(args, [args.response])
     model = fit_response_surface(runs.coded, runs.responses[args.response], runs.factors, "linear",
                                  args.response)
     b = model.coef[1:]
@@ -106,6 +110,8 @@ def _steepest(args) -> Design:
 
 
 def run(args) -> int:
+    from demcal.doe.io import write_design_csv
+
     design = build_design(args)
     if args.output:
         write_design_csv(design, args.output, coded=args.coded)

@@ -93,6 +93,63 @@ def _to_point(x, y, z, qx, qy, qz, fx, fy, fz):
 
 
 @njit(cache=True)
+def _clamp(v, lo, hi):
+    """``v`` limited to ``[lo, hi]`` (``lo <= hi``)."""
+    if v < lo:
+        return lo
+    if v > hi:
+        return hi
+    return v
+
+
+@njit(cache=True)
+def _to_point_sided(x, y, z, qx, qy, qz, nx, ny, nz, side):
+    """:func:`_to_point` with the fallback normal ``n`` turned towards the query point's
+    ``side`` of a two-sided flat surface (``-n`` where ``side < 0``)."""
+    if side < 0.0:
+        return _to_point(x, y, z, qx, qy, qz, -nx, -ny, -nz)
+    return _to_point(x, y, z, qx, qy, qz, nx, ny, nz)
+
+
+@njit(cache=True)
+def _axial_coordinates(cx, cy, cz, ax, ay, az, x, y, z):
+    """Coordinates of (x, y, z) about the axis through ``c`` along the unit vector ``a``.
+
+    Returns the axial coordinate ``h``, the distance ``rho`` from the axis and the unit
+    radial direction ``u`` (any unit vector perpendicular to the axis when on it).
+    """
+    wx = x - cx
+    wy = y - cy
+    wz = z - cz
+    h = wx * ax + wy * ay + wz * az
+    qx = wx - h * ax
+    qy = wy - h * ay
+    qz = wz - h * az
+    rho = math.sqrt(qx * qx + qy * qy + qz * qz)
+    if rho > _TINY:
+        return h, rho, qx / rho, qy / rho, qz / rho
+    ux, uy, uz = perpendicular(ax, ay, az)
+    return h, rho, ux, uy, uz
+
+
+@njit(cache=True)
+def _from_meridian(dr, dh, tol, fr, fh, ux, uy, uz, ax, ay, az):
+    """Distance and world normal from the offset ``(dr, dh)`` (radial, axial) from a
+    surface of revolution about the unit axis ``a`` to the query point in its meridian
+    half-plane with radial direction ``u``. Within ``tol`` of the surface the normal is
+    the meridian vector ``(fr, fh)``, normalised."""
+    d = math.sqrt(dr * dr + dh * dh)
+    if d > tol:
+        nr = dr / d
+        nh = dh / d
+    else:
+        inv = 1.0 / math.sqrt(fr * fr + fh * fh)
+        nr = fr * inv
+        nh = fh * inv
+    return d, nr * ux + nh * ax, nr * uy + nh * ay, nr * uz + nh * az
+
+
+@njit(cache=True)
 def plane_distance(p, x, y, z):
     """Signed distance to an infinite plane (point ``p[0:3]``, unit normal ``p[3:6]``)."""
     nx = p[3]
@@ -105,44 +162,10 @@ def plane_distance(p, x, y, z):
 @njit(cache=True)
 def disk_distance(p, x, y, z):
     """Distance to a flat disk or annulus (two-sided, including its rims)."""
-    cx = p[0]
-    cy = p[1]
-    cz = p[2]
-    ax = p[3]
-    ay = p[4]
-    az = p[5]
-    r_out = p[6]
-    r_in = p[7]
-    wx = x - cx
-    wy = y - cy
-    wz = z - cz
-    h = wx * ax + wy * ay + wz * az
-    qx = wx - h * ax
-    qy = wy - h * ay
-    qz = wz - h * az
-    rho = math.sqrt(qx * qx + qy * qy + qz * qz)
-    if rho > _TINY:
-        ux = qx / rho
-        uy = qy / rho
-        uz = qz / rho
-    else:
-        ux, uy, uz = perpendicular(ax, ay, az)
-    rc = rho
-    if rc > r_out:
-        rc = r_out
-    if rc < r_in:
-        rc = r_in
-    sx = cx + rc * ux
-    sy = cy + rc * uy
-    sz = cz + rc * uz
-    fx = ax
-    fy = ay
-    fz = az
-    if h < 0.0:
-        fx = -ax
-        fy = -ay
-        fz = -az
-    return _to_point(x, y, z, sx, sy, sz, fx, fy, fz)
+    cx, cy, cz, ax, ay, az, r_out, r_in = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
+    h, rho, ux, uy, uz = _axial_coordinates(cx, cy, cz, ax, ay, az, x, y, z)
+    rc = _clamp(rho, r_in, r_out)
+    return _to_point_sided(x, y, z, cx + rc * ux, cy + rc * uy, cz + rc * uz, ax, ay, az, h)
 
 
 @njit(cache=True)
@@ -154,124 +177,41 @@ def cone_distance(p, x, y, z):
     half-plane of the query point the surface is the segment (r1, 0) -> (r2, L) in
     (radial, axial) coordinates; the nearest point is the nearest point on that segment.
     """
-    cx = p[0]
-    cy = p[1]
-    cz = p[2]
-    ax = p[3]
-    ay = p[4]
-    az = p[5]
-    r1 = p[6]
-    r2 = p[7]
-    length = p[8]
-    wx = x - cx
-    wy = y - cy
-    wz = z - cz
-    h = wx * ax + wy * ay + wz * az
-    qx = wx - h * ax
-    qy = wy - h * ay
-    qz = wz - h * az
-    rho = math.sqrt(qx * qx + qy * qy + qz * qz)
-    if rho > _TINY:
-        ux = qx / rho
-        uy = qy / rho
-        uz = qz / rho
-    else:
-        ux, uy, uz = perpendicular(ax, ay, az)
+    ax, ay, az, r1, r2, length = p[3], p[4], p[5], p[6], p[7], p[8]
+    h, rho, ux, uy, uz = _axial_coordinates(p[0], p[1], p[2], ax, ay, az, x, y, z)
     gr = r2 - r1
     gh = length
-    g2 = gr * gr + gh * gh
-    t = ((rho - r1) * gr + h * gh) / g2
-    if t < 0.0:
-        t = 0.0
-    elif t > 1.0:
-        t = 1.0
+    t = _clamp(((rho - r1) * gr + h * gh) / (gr * gr + gh * gh), 0.0, 1.0)
     sr = r1 + t * gr
     sh = t * gh
-    dr = rho - sr
-    dh = h - sh
-    d = math.sqrt(dr * dr + dh * dh)
-    if d > 1e-14 * (1.0 + abs(sr) + abs(sh)):
-        nr = dr / d
-        nh = dh / d
-    else:
-        inv = 1.0 / math.sqrt(g2)
-        nr = gh * inv
-        nh = -gr * inv
-    return d, nr * ux + nh * ax, nr * uy + nh * ay, nr * uz + nh * az
+    tol = 1e-14 * (1.0 + abs(sr) + abs(sh))
+    return _from_meridian(rho - sr, h - sh, tol, gh, -gr, ux, uy, uz, ax, ay, az)
 
 
 @njit(cache=True)
 def cylinder_distance(p, x, y, z):
     """Distance to a finite cylindrical shell (open ends, two-sided, with rims)."""
-    cx = p[0]
-    cy = p[1]
-    cz = p[2]
-    ax = p[3]
-    ay = p[4]
-    az = p[5]
-    radius = p[6]
-    length = p[7]
-    wx = x - cx
-    wy = y - cy
-    wz = z - cz
-    h = wx * ax + wy * ay + wz * az
-    qx = wx - h * ax
-    qy = wy - h * ay
-    qz = wz - h * az
-    rho = math.sqrt(qx * qx + qy * qy + qz * qz)
-    if rho > _TINY:
-        ux = qx / rho
-        uy = qy / rho
-        uz = qz / rho
-    else:
-        ux, uy, uz = perpendicular(ax, ay, az)
-    hc = h
-    if hc < 0.0:
-        hc = 0.0
-    elif hc > length:
-        hc = length
-    dr = rho - radius
-    dh = h - hc
-    d = math.sqrt(dr * dr + dh * dh)
-    if d > 1e-14 * (1.0 + radius + abs(hc)):
-        nr = dr / d
-        nh = dh / d
-    else:
-        nr = 1.0
-        nh = 0.0
-    return d, nr * ux + nh * ax, nr * uy + nh * ay, nr * uz + nh * az
+    ax, ay, az, radius, length = p[3], p[4], p[5], p[6], p[7]
+    h, rho, ux, uy, uz = _axial_coordinates(p[0], p[1], p[2], ax, ay, az, x, y, z)
+    hc = _clamp(h, 0.0, length)
+    tol = 1e-14 * (1.0 + radius + abs(hc))
+    return _from_meridian(rho - radius, h - hc, tol, 1.0, 0.0, ux, uy, uz, ax, ay, az)
 
 
 @njit(cache=True)
 def rect_distance(p, x, y, z):
     """Distance to a finite rectangle (two-sided, with edges and corners)."""
-    cx = p[0]
-    cy = p[1]
-    cz = p[2]
+    cx, cy, cz, ux, uy, uz, vx, vy, vz = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
+    nx, ny, nz, uu, vv = p[9], p[10], p[11], p[12], p[13]
     wx = x - cx
     wy = y - cy
     wz = z - cz
-    s = (wx * p[3] + wy * p[4] + wz * p[5]) / p[12]
-    if s > 1.0:
-        s = 1.0
-    elif s < -1.0:
-        s = -1.0
-    t = (wx * p[6] + wy * p[7] + wz * p[8]) / p[13]
-    if t > 1.0:
-        t = 1.0
-    elif t < -1.0:
-        t = -1.0
-    sx = cx + s * p[3] + t * p[6]
-    sy = cy + s * p[4] + t * p[7]
-    sz = cz + s * p[5] + t * p[8]
-    nx = p[9]
-    ny = p[10]
-    nz = p[11]
-    if wx * nx + wy * ny + wz * nz < 0.0:
-        nx = -nx
-        ny = -ny
-        nz = -nz
-    return _to_point(x, y, z, sx, sy, sz, nx, ny, nz)
+    s = _clamp((wx * ux + wy * uy + wz * uz) / uu, -1.0, 1.0)
+    t = _clamp((wx * vx + wy * vy + wz * vz) / vv, -1.0, 1.0)
+    sx = cx + s * ux + t * vx
+    sy = cy + s * uy + t * vy
+    sz = cz + s * uz + t * vz
+    return _to_point_sided(x, y, z, sx, sy, sz, nx, ny, nz, wx * nx + wy * ny + wz * nz)
 
 
 @njit(cache=True)
@@ -336,15 +276,10 @@ def triangle_closest_point(p, x, y, z):
 @njit(cache=True)
 def triangle_distance(p, x, y, z):
     """Distance to one triangle (two-sided, with edges and vertices)."""
+    nx, ny, nz = p[9], p[10], p[11]
+    side = (x - p[0]) * nx + (y - p[1]) * ny + (z - p[2]) * nz
     sx, sy, sz = triangle_closest_point(p, x, y, z)
-    nx = p[9]
-    ny = p[10]
-    nz = p[11]
-    if (x - p[0]) * nx + (y - p[1]) * ny + (z - p[2]) * nz < 0.0:
-        nx = -nx
-        ny = -ny
-        nz = -nz
-    return _to_point(x, y, z, sx, sy, sz, nx, ny, nz)
+    return _to_point_sided(x, y, z, sx, sy, sz, nx, ny, nz, side)
 
 
 @njit(cache=True)

@@ -42,8 +42,16 @@ def _positive(value, name: str, allow_zero: bool = False) -> float:
     return v
 
 
-def _row() -> np.ndarray:
-    return np.zeros(K.PARAM_WIDTH)
+def _row(point=None, direction=None, *values) -> np.ndarray:
+    """A kernel parameter row: ``point`` in slots 0:3, ``direction`` in 3:6 and the scalar
+    ``values`` from slot 6 on (the layouts of plane, disk, cylinder and cone rows); zeros
+    elsewhere."""
+    p = np.zeros(K.PARAM_WIDTH)
+    if point is not None:
+        p[0:3] = point
+        p[3:6] = direction
+        p[6:6 + len(values)] = values
+    return p
 
 
 class Wall:
@@ -104,10 +112,7 @@ class Plane(Wall):
         self.normal = _unit(normal, "plane normal")
 
     def rows(self):
-        p = _row()
-        p[0:3] = self.point
-        p[3:6] = self.normal
-        return np.array([K.PLANE], np.int32), p[None, :]
+        return np.array([K.PLANE], np.int32), _row(self.point, self.normal)[None, :]
 
 
 class Disk(Wall):
@@ -128,11 +133,7 @@ class Disk(Wall):
             )
 
     def rows(self):
-        p = _row()
-        p[0:3] = self.centre
-        p[3:6] = self.normal
-        p[6] = self.radius
-        p[7] = self.inner_radius
+        p = _row(self.centre, self.normal, self.radius, self.inner_radius)
         return np.array([K.DISK], np.int32), p[None, :]
 
 
@@ -162,21 +163,12 @@ class Cylinder(Wall):
         self.top = bool(top)
 
     def rows(self):
-        p = _row()
-        p[0:3] = self.base
-        p[3:6] = self.axis
-        p[6] = self.radius
-        p[7] = self.length
         kinds = [K.CYLINDER]
-        params = [p]
+        params = [_row(self.base, self.axis, self.radius, self.length)]
         for on, centre in ((self.bottom, self.base), (self.top, self.base + self.length * self.axis)):
             if on:
-                q = _row()
-                q[0:3] = centre
-                q[3:6] = self.axis
-                q[6] = self.radius
                 kinds.append(K.DISK)
-                params.append(q)
+                params.append(_row(centre, self.axis, self.radius))
         return np.array(kinds, np.int32), np.array(params)
 
 
@@ -197,12 +189,7 @@ class Cone(Wall):
         self.length = _positive(length, "cone length")
 
     def rows(self):
-        p = _row()
-        p[0:3] = self.base
-        p[3:6] = self.axis
-        p[6] = self.r1
-        p[7] = self.r2
-        p[8] = self.length
+        p = _row(self.base, self.axis, self.r1, self.r2, self.length)
         return np.array([K.CONE], np.int32), p[None, :]
 
 
@@ -254,21 +241,11 @@ class Funnel(Wall):
         kinds = []
         params = []
         if self.outlet_length > 0.0:
-            p = _row()
-            p[0:3] = self.outlet
-            p[3:6] = self.axis
-            p[6] = self.outlet_radius
-            p[7] = self.outlet_length
             kinds.append(K.CYLINDER)
-            params.append(p)
-        q = _row()
-        q[0:3] = self.outlet + self.outlet_length * self.axis
-        q[3:6] = self.axis
-        q[6] = self.outlet_radius
-        q[7] = self.top_radius
-        q[8] = self.cone_height
+            params.append(_row(self.outlet, self.axis, self.outlet_radius, self.outlet_length))
         kinds.append(K.CONE)
-        params.append(q)
+        params.append(_row(self.outlet + self.outlet_length * self.axis, self.axis,
+                           self.outlet_radius, self.top_radius, self.cone_height))
         return np.array(kinds, np.int32), np.array(params)
 
 

@@ -5,18 +5,20 @@ from __future__ import annotations
 import json
 import sys
 
+from demcal._cliutil import add_command, add_json
 from demcal.errors import ConfigError, DataError
 
 
 def register(subparsers) -> None:
-    measure = subparsers.add_parser(
-        "measure", help="angle of repose from heap photos; sliding angle from incline readings",
+    measure = add_command(
+        subparsers, "measure", lambda args: (measure.print_help(), 1)[1],
+        help="angle of repose from heap photos; sliding angle from incline readings",
         description="Lab measurements: angle of repose from heap photos, sliding angle from "
                     "inclined-plane readings.")
     sub = measure.add_subparsers(dest="measure_command", metavar="WHAT")
 
-    repose = sub.add_parser(
-        "repose", help="angle of repose from heap photos",
+    repose = add_command(
+        sub, "repose", _repose, help="angle of repose from heap photos",
         description="Segment each heap photo, trace the heap's outline, fit both flanks by "
                     "robust least squares and report left, right and mean angle; many "
                     "photos give mean +- sd with outliers flagged. A bad photo is reported "
@@ -30,11 +32,10 @@ def register(subparsers) -> None:
                              "(default 0.1,0.9)")
     repose.add_argument("--out", help="folder for annotated PNGs and table.csv")
     repose.add_argument("--workers", type=int, default=1, help="processes (default 1)")
-    repose.add_argument("--json", action="store_true", help="print JSON")
-    repose.set_defaults(func=_repose)
+    add_json(repose, "print JSON")
 
-    incline = sub.add_parser(
-        "incline", help="sliding angle theta = arcsin(H/L) from ruler readings",
+    incline = add_command(
+        sub, "incline", _incline, help="sliding angle theta = arcsin(H/L) from ruler readings",
         description="theta = arcsin(H / L) for each reading, and mean +- sd "
                     "(over group means with --repeats).")
     incline.add_argument("--H", dest="H", type=float, nargs="+", required=True, metavar="MM",
@@ -42,9 +43,7 @@ def register(subparsers) -> None:
     incline.add_argument("--L", dest="L", type=float, default=300.0, metavar="MM",
                          help="distance from that point to the spindle [mm] (default 300)")
     incline.add_argument("--repeats", type=int, help="readings per group, in order")
-    incline.add_argument("--json", action="store_true", help="print JSON")
-    incline.set_defaults(func=_incline)
-    measure.set_defaults(func=lambda args: (measure.print_help(), 1)[1])
+    add_json(incline, "print JSON")
 
 
 def _floats(text: str, count: int, what: str) -> list[float]:
@@ -70,13 +69,13 @@ def _repose(args) -> int:
                            band=band, out_dir=args.out, workers=max(1, args.workers))
     if args.out:
         Path(args.out).mkdir(parents=True, exist_ok=True)
-        batch.table.to_csv(Path(args.out) / "table.csv", index=False)
+        batch.write_csv(Path(args.out) / "table.csv")
     if len(args.photos) == 1 and batch.failures:
         raise DataError(batch.failures[0][1])
     if args.json:
         print(json.dumps(batch.to_dict(), indent=2))
     else:
-        for _, row in batch.table.iterrows():
+        for row in batch.rows:
             if row["error"] is None:
                 flag = "  OUTLIER" if row["outlier"] else ""
                 print(f"{row['photo']}: {row['angle_deg']:.2f} deg (left {row['left_deg']:.2f}, "

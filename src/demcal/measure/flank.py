@@ -27,7 +27,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 
 from demcal.errors import DataError
 
@@ -114,6 +113,19 @@ class OutlineFit:
         return 0.5 * (self.left.r2 + self.right.r2)
 
 
+def theil_sen(x, z) -> tuple[float, float]:
+    """Theil--Sen line ``z = intercept + slope x``: the median of the slopes of all
+    pairs of points with different ``x`` (Sen 1968), and the intercept
+    ``median(z) - slope median(x)`` -- the same numbers as
+    ``scipy.stats.theilslopes(z, x)[:2]`` without importing ``scipy.stats``."""
+    x = np.asarray(x, dtype=float).ravel()
+    z = np.asarray(z, dtype=float).ravel()
+    dx = x[:, None] - x
+    pos = dx > 0
+    slope = float(np.median((z[:, None] - z)[pos] / dx[pos]))
+    return slope, float(np.median(z) - slope * np.median(x))
+
+
 def fit_line(x, z, side: str = "left", reject_sigma: float = DEFAULT_REJECT_SIGMA,
              max_iter: int = 30) -> FlankFit:
     """Fit ``z = a + b x`` by least squares with iterative rejection of outliers.
@@ -146,7 +158,7 @@ def fit_line(x, z, side: str = "left", reject_sigma: float = DEFAULT_REJECT_SIGM
         )
     # Robust start: Theil--Sen on an evenly spaced subset.
     step = max(1, x.size // _THEIL_SEN_POINTS)
-    slope, intercept = stats.theilslopes(z[::step], x[::step])[:2]
+    slope, intercept = theil_sen(x[::step], z[::step])
     inlier = np.ones(x.size, dtype=bool)
     floor = 1e-9 * max(np.ptp(z), np.ptp(x), 1e-300)
     for _ in range(max_iter):

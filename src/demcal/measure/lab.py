@@ -40,7 +40,6 @@ from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
-from scipy import stats
 
 from demcal.errors import ConfigError, DataError
 
@@ -75,7 +74,9 @@ def summarize(values, confidence: float = 0.95) -> Summary:
     if v.size < 2:
         return Summary(mean, float("nan"), 1, float("nan"), float("nan"), confidence)
     sd = float(v.std(ddof=1))
-    half = float(stats.t.ppf(0.5 + confidence / 2, v.size - 1) * sd / np.sqrt(v.size))
+    from scipy.special import stdtrit  # Student t quantile, as scipy.stats.t.ppf
+
+    half = float(stdtrit(v.size - 1, 0.5 + confidence / 2) * sd / np.sqrt(v.size))
     return Summary(mean, sd, int(v.size), mean - half, mean + half, confidence)
 
 
@@ -364,16 +365,27 @@ def _given_angle(t, key, where) -> MeasuredAngle:
     return MeasuredAngle(mean, float("nan") if sd is None else sd, n)
 
 
-def _repose(t, where):
+def _given_or_measured(t, where, key, source, table_text, source_text, keys):
+    """The angle ``key`` given as ``mean_deg`` (and ``sd_deg``, ``n``), or ``None`` when
+    the table holds its ``source`` data (photos, readings) instead; ``keys`` are the
+    keys that data may use; ``table_text`` and ``source_text`` name it in messages."""
     if not isinstance(t, Mapping):
-        raise ConfigError(f"{where}: 'repose' must be a table (mean_deg/sd_deg/n or photos).")
-    _unknown(t, {"mean_deg", "sd_deg", "n", "photos", "mm_per_px", "roi", "base_y"}, f"{where} repose")
+        raise ConfigError(f"{where}: '{key}' must be a table (mean_deg/sd_deg/n or {table_text}).")
+    _unknown(t, {"mean_deg", "sd_deg", "n", *keys}, f"{where} {key}")
     if "mean_deg" in t:
-        if "photos" in t:
-            raise ConfigError(f"{where} repose: give either 'mean_deg' or 'photos', not both.")
-        return _given_angle(t, "repose", where), None
-    if "photos" not in t:
-        raise ConfigError(f"{where} repose: give 'mean_deg' (and 'sd_deg', 'n') or 'photos'.")
+        if source in t:
+            raise ConfigError(f"{where} {key}: give either 'mean_deg' or '{source}', not both.")
+        return _given_angle(t, key, where)
+    if source not in t:
+        raise ConfigError(f"{where} {key}: give 'mean_deg' (and 'sd_deg', 'n') or {source_text}.")
+    return None
+
+
+def _repose(t, where):
+    given = _given_or_measured(t, where, "repose", "photos", "photos", "'photos'",
+                               ("photos", "mm_per_px", "roi", "base_y"))
+    if given is not None:
+        return given, None
     photos = t["photos"]
     if isinstance(photos, str):
         photos = [photos]
@@ -390,15 +402,10 @@ def _repose(t, where):
 
 
 def _sliding(t, where):
-    if not isinstance(t, Mapping):
-        raise ConfigError(f"{where}: 'sliding' must be a table (mean_deg/sd_deg/n or H_mm/L_mm).")
-    _unknown(t, {"mean_deg", "sd_deg", "n", "H_mm", "L_mm", "repeats"}, f"{where} sliding")
-    if "mean_deg" in t:
-        if "H_mm" in t:
-            raise ConfigError(f"{where} sliding: give either 'mean_deg' or 'H_mm', not both.")
-        return _given_angle(t, "sliding", where), None
-    if "H_mm" not in t:
-        raise ConfigError(f"{where} sliding: give 'mean_deg' (and 'sd_deg', 'n') or 'H_mm' readings.")
+    given = _given_or_measured(t, where, "sliding", "H_mm", "H_mm/L_mm", "'H_mm' readings",
+                               ("H_mm", "L_mm", "repeats"))
+    if given is not None:
+        return given, None
     H = _numbers(t, "H_mm", f"{where} sliding")
     L = _number(t, "L_mm", f"{where} sliding", 0.0, None, open_low=True)
     repeats = t.get("repeats")

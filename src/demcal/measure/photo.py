@@ -3,18 +3,22 @@
 One photo is measured in these steps (all automatic; ``roi`` and ``base_y`` help where
 automation is not enough):
 
-1. **Load** with :func:`skimage.io.imread`; grey or RGB(A), any bit depth; scaled to 0..1.
+1. **Load**: 8-bit PNG and JPEG with Pillow, other files with :func:`skimage.io.imread`;
+   grey or RGB(A), any bit depth; intensities relative to the full scale of the type.
 2. **Region of interest** ``(x0, y0, x1, y1)`` [px], if given: everything else is ignored.
 3. **Channel**: of luminance, red, green, blue and chroma (``max - min`` of RGB, which
-   separates a coloured heap from a grey wall and its shadow), each smoothed by a
-   Gaussian of 1 px, the one whose Otsu threshold separates best (largest ratio of
-   between-class to total variance; Otsu 1979, doi:10.1109/TSMC.1979.4310076) among
-   those whose two classes differ by at least :data:`MIN_CONTRAST`.
+   separates a coloured heap from a grey wall and its shadow), the one whose Otsu
+   threshold separates best (largest ratio of between-class to total variance; Otsu
+   1979, doi:10.1109/TSMC.1979.4310076) among those whose two classes differ by at least
+   :data:`MIN_CONTRAST`. The choice is made on a thumbnail of block means (about
+   :data:`_THUMB_PX` px on the short side, e.g. 4 x 4 px blocks of a 800 x 600 photo),
+   which also smooths the noise.
    Before the choice each channel is divided by its lighting, a quadratic surface in
-   (x, y) fitted robustly to the whole photo (the heap and plate are rejected as
+   (x, y) fitted robustly to the thumbnail (the heap and plate are rejected as
    outliers), which removes uneven lighting and vignetting.
-4. **Lighting again**: the surface is refitted to the background pixels of this first
-   segmentation only, divided out, and Otsu is applied again.
+4. **Lighting again**: the surface is refitted to the background blocks of the
+   thumbnail's segmentation only; the chosen channel at full resolution, smoothed by a
+   Gaussian of 1 px, is divided by it and Otsu is applied again.
 5. **Polarity**: the class that fills the top rows of the image is the background, so a
    front-lit heap darker than the wall, a back-lit black silhouette and a light heap on
    a dark cloth are all handled.
@@ -39,12 +43,10 @@ Lengths are converted with ``mm_per_px`` (the angle does not depend on it).
 from __future__ import annotations
 
 import os
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 from scipy import ndimage
 
 from demcal.errors import DataError
@@ -57,7 +59,17 @@ OUTLIER_Z = 3.5
 #: A channel whose Otsu classes differ by less than this (intensity 0..1) is not used
 #: while another one separates the heap by more.
 MIN_CONTRAST = 0.08
+#: Columns of a batch's table (:attr:`PhotoBatch.rows`, ``table.csv``).
+TABLE_COLUMNS = ("photo", "angle_deg", "left_deg", "right_deg", "r2", "height", "unit", "png",
+                 "error", "outlier")
 _SMOOTH_PX = 1.0
+#: Luminance weights of linear RGB (ITU-R BT.709, as skimage.color.rgb2gray).
+_LUMA = np.array([0.2125, 0.7154, 0.0721])
+#: The channel choice and the lighting model use block means down to about this many
+#: pixels on the short side.
+_THUMB_PX = 150
+#: The lighting model is fitted to one block about every this many pixels.
+_LIGHT_STEP_PX = 20
 _OPEN_RADIUS = 2
 
 
@@ -95,20 +107,8 @@ class PhotoMeasurement:
     png: str | None = None
 
     def to_dict(self) -> dict:
-        return {
-            "photo": self.photo,
-            "angle_deg": self.angle_deg,
-            "left_deg": self.left_deg,
-            "right_deg": self.right_deg,
-            "r2": self.r2,
-            "height": self.height,
-            "width": self.width,
-            "unit": self.unit,
-            "base_row": self.base_row,
-            "channel": self.channel,
-            "polarity": self.polarity,
-            "png": self.png,
-        }
+        """Every attribute but ``fit``."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "fit"}
 
 
 def load_photo(path) -> np.ndarray:
@@ -119,38 +119,53 @@ def load_photo(path) -> np.ndarray:
     DataError
         Missing or unreadable file.
     """
-    from skimage import io
+    return _as_rgb(_read(path), str(path))
 
+
+def _read(path) -> np.ndarray:
+    """The pixels of an image file as stored (8-bit PNG and JPEG straight from Pillow,
+    everything else through :func:`skimage.io.imread`, which gives the same arrays)."""
     path = Path(path)
     if not path.is_file():
         raise DataError(f"photo '{path}' does not exist; check the path.")
     try:
-        image = io.imread(path)
+        from PIL import Image
+
+        with Image.open(path) as im:
+            if (im.format in ("PNG", "JPEG") and im.mode in ("L", "LA", "RGB", "RGBA")
+                    and getattr(im, "n_frames", 1) == 1):
+                return np.asarray(im)
+    except Exception:  # not for Pillow: skimage says what is wrong
+        pass
+    from skimage import io
+
+    try:
+        return io.imread(path)
     except Exception as exc:  # skimage/imageio raise many kinds
         raise DataError(f"cannot read photo '{path}' as an image ({type(exc).__name__}); "
                         "use a PNG, JPEG or TIFF file.") from None
-    return _as_rgb(image, str(path))
 
 
 def _as_rgb(image, name) -> np.ndarray:
+    pixels, full_scale = _pixels(image, name)
+    return pixels / full_scale
+
+
+def _pixels(image, name) -> tuple[np.ndarray, float]:
+    """An image as stored, viewed as (rows, cols, 3) (grey repeated, alpha dropped;
+    no copy), and the value of full intensity (the dtype's maximum, 1 for floats)."""
     image = np.asarray(image)
     if image.dtype.kind not in "uif" or image.ndim not in (2, 3) or min(image.shape[:2]) < 16:
         raise DataError(f"photo '{name}' is not a usable image (shape {image.shape}); "
                         "use a grey or colour picture at least 16 px wide and high.")
-    if image.dtype.kind in "ui":
-        scale = float(np.iinfo(image.dtype).max)
-    else:
-        scale = 1.0
-    img = image.astype(float) / scale
-    if img.ndim == 2:
-        img = np.repeat(img[..., None], 3, axis=2)
-    elif img.shape[2] == 4:
-        img = img[..., :3]
-    elif img.shape[2] == 2:
-        img = np.repeat(img[..., :1], 3, axis=2)
-    elif img.shape[2] != 3:
-        raise DataError(f"photo '{name}' has {img.shape[2]} channels; use a grey or RGB picture.")
-    return img
+    full_scale = float(np.iinfo(image.dtype).max) if image.dtype.kind in "ui" else 1.0
+    if image.ndim == 2:
+        image = image[..., None]
+    elif image.shape[2] in (2, 4):
+        image = image[..., :1] if image.shape[2] == 2 else image[..., :3]
+    elif image.shape[2] != 3:
+        raise DataError(f"photo '{name}' has {image.shape[2]} channels; use a grey or RGB picture.")
+    return np.broadcast_to(image, image.shape[:2] + (3,)), full_scale
 
 
 def _otsu(values: np.ndarray) -> tuple[float, float, float]:
@@ -170,52 +185,103 @@ def _otsu(values: np.ndarray) -> tuple[float, float, float]:
     return float(edges[k + 1]), eta, float(mu1[k] - mu0[k])
 
 
-def _channels(img: np.ndarray) -> dict[str, np.ndarray]:
+def _channels(img: np.ndarray, name: str | None = None, full_scale: float = 1.0):
+    """The candidate channels (a dict), or only the one named, of RGB pixels of any
+    dtype, as floats with full intensity 1 (``full_scale`` in ``img``)."""
     r, g, b = img[..., 0], img[..., 1], img[..., 2]
-    lum = 0.2125 * r + 0.7154 * g + 0.0721 * b
-    chroma = np.maximum(np.maximum(r, g), b) - np.minimum(np.minimum(r, g), b)
-    return {"luminance": lum, "red": r, "green": g, "blue": b, "chroma": chroma}
+
+    def chroma():  # in the pixels' own dtype, which is fast for 8 bits
+        high = np.maximum(r, g)
+        np.maximum(high, b, out=high)
+        low = np.minimum(r, g)
+        np.minimum(low, b, out=low)
+        return np.divide(np.subtract(high, low, out=high), full_scale, dtype=float)
+
+    make = {"luminance": lambda: img @ (_LUMA / full_scale),
+            "red": lambda: np.divide(r, full_scale, dtype=float),
+            "green": lambda: np.divide(g, full_scale, dtype=float),
+            "blue": lambda: np.divide(b, full_scale, dtype=float),
+            "chroma": chroma}
+    if name is not None:
+        return make[name]()
+    return {key: f() for key, f in make.items()}
 
 
-def _background_model(values: np.ndarray, use: np.ndarray | None = None,
-                      step: int = 10, rounds: int = 3) -> np.ndarray:
-    """Smooth lighting: a quadratic surface in (x, y) fitted to ``values`` on a grid of
-    every ``step``-th pixel, where ``use`` is true, refitted ``rounds`` times without
-    the points farther than 2.5 robust sd from it (the heap, the plate, shadows)."""
-    rows, cols = values.shape
-    gy = (np.arange(0, rows, step) / rows - 0.5)[:, None]
-    gx = (np.arange(0, cols, step) / cols - 0.5)[None, :]
-    one = np.ones_like(gy * gx)
-    design = np.stack([one, gx * one, gy * one, (gx * gx) * one, gx * gy, (gy * gy) * one], -1)
-    design = design.reshape(-1, 6)
-    target = values[::step, ::step].ravel()
-    keep = np.ones(target.size, bool) if use is None else use[::step, ::step].ravel().copy()
-    for _ in range(rounds):
-        if keep.sum() < 12:
-            break
-        coef = np.linalg.lstsq(design[keep], target[keep], rcond=None)[0]
-        if use is not None:
-            break
-        resid = target - design @ coef
-        mad = np.median(np.abs(resid - np.median(resid)))
-        keep = np.abs(resid - np.median(resid)) <= 2.5 * 1.4826 * max(mad, 1e-6)
-    gy = (np.arange(rows) / rows - 0.5)[:, None]
-    gx = (np.arange(cols) / cols - 0.5)[None, :]
-    return (coef[0] + coef[1] * gx + coef[3] * gx * gx) + (coef[2] * gy + coef[5] * gy * gy) \
-        + coef[4] * gx * gy
+def _thumbnail(img: np.ndarray, full_scale: float = 1.0) -> tuple[np.ndarray, int]:
+    """Block means of ``f x f`` pixels as floats with full intensity 1, ``f`` chosen so
+    that the short side keeps about :data:`_THUMB_PX` pixels; returns them and ``f``."""
+    f = max(1, min(img.shape[:2]) // _THUMB_PX)
+    if f == 1:
+        return img / full_scale, 1
+    r, c = img.shape[0] // f * f, img.shape[1] // f * f
+    rows = img[0:r:f].astype(float)  # sums of strided slices: far faster than mean(axis=(1, 3))
+    for i in range(1, f):
+        rows += img[i:r:f]
+    out = rows[:, 0:c:f].copy()
+    for j in range(1, f):
+        out += rows[:, j:c:f]
+    return out / (f * f * full_scale), f
 
 
-def _flatten(values: np.ndarray, use: np.ndarray | None = None):
-    """``values`` divided by their lighting model, and the model's median (the scale
-    of the flattened values); unchanged where the model is not positive."""
-    model = _background_model(values, use)
-    if np.all(model > 1e-3):
-        return values / model, float(np.median(model))
-    return values, 1.0
+def _coords(n: int, f: int, full: int) -> np.ndarray:
+    """Normalised positions (-0.5 .. 0.5 over the full image) of the centres of ``n``
+    blocks of ``f`` pixels."""
+    return (np.arange(n) * f + 0.5 * (f - 1)) / full - 0.5
 
 
-def segment(img: np.ndarray, top_rows: int | None = None):
-    """Foreground mask of a heap photo (before choosing the heap piece).
+class _Lighting:
+    """Smooth lighting: a quadratic surface in (x, y) over an image of ``shape``,
+    fitted to the thumbnail ``values`` (blocks of ``f`` pixels) on every ``step``-th
+    block, where ``use`` is true; without ``use`` it is refitted ``rounds`` times
+    without the blocks farther than 2.5 robust sd from it (the heap, the plate,
+    shadows)."""
+
+    def __init__(self, values, f, shape, use=None, rounds=3):
+        step = max(1, round(_LIGHT_STEP_PX / f))
+        gy = _coords(values.shape[0], f, shape[0])[::step, None]
+        gx = _coords(values.shape[1], f, shape[1])[None, ::step]
+        one = np.ones_like(gy * gx)
+        design = np.stack([one, gx * one, gy * one, (gx * gx) * one, gx * gy, (gy * gy) * one], -1)
+        design = design.reshape(-1, 6)
+        target = values[::step, ::step].ravel()
+        keep = np.ones(target.size, bool) if use is None else use[::step, ::step].ravel().copy()
+        self.coef = None
+        for _ in range(rounds):
+            if keep.sum() < 12:
+                break
+            a = design[keep]  # normal equations: six well-scaled columns
+            self.coef = np.linalg.solve(a.T @ a, a.T @ target[keep])
+            if use is not None:
+                break
+            resid = target - design @ self.coef
+            dev = np.abs(resid - np.median(resid))
+            keep = dev <= 2.5 * 1.4826 * max(np.median(dev), 1e-6)
+        self.shape = shape
+
+    def at(self, rows: int, cols: int, f: int = 1) -> np.ndarray | None:
+        """The model on ``rows x cols`` blocks of ``f`` pixels (``None`` if unfitted)."""
+        c = self.coef
+        if c is None:
+            return None
+        gy = _coords(rows, f, self.shape[0])[:, None]
+        gx = _coords(cols, f, self.shape[1])[None, :]
+        model = np.multiply(c[4] * gy, gx)  # one full-size array, added to in place
+        model += c[0] + c[1] * gx + c[3] * gx * gx
+        model += c[2] * gy + c[5] * gy * gy
+        return model
+
+    def flatten(self, values: np.ndarray, f: int = 1) -> tuple[np.ndarray, np.ndarray | None]:
+        """``values`` (blocks of ``f`` pixels) divided by the model, and the model;
+        unchanged and ``None`` where the model is not positive."""
+        model = self.at(*values.shape[:2], f)
+        if model is not None and model.min() > 1e-3:
+            return np.divide(values, model), model
+        return values, None
+
+
+def segment(img: np.ndarray, top_rows: int | None = None, full_scale: float = 1.0):
+    """Foreground mask of a heap photo (RGB, full intensity ``full_scale``) before
+    choosing the heap piece.
 
     Raises :class:`DataError` when no channel has :data:`MIN_CONTRAST`.
     Returns ``(mask, channel_values, threshold, channel_name, polarity)``: the
@@ -225,38 +291,42 @@ def segment(img: np.ndarray, top_rows: int | None = None):
     """
     rows = img.shape[0]
     top_rows = top_rows or max(2, rows // 30)
+    thumb, f = _thumbnail(img, full_scale)
+    top_thumb = max(1, top_rows // f)
     best = None
-    channels = _channels(img)
-    for name, values in channels.items():
-        # the choice is made at half resolution
-        small = ndimage.gaussian_filter(values[::2, ::2], _SMOOTH_PX)
-        flat, scale = _flatten(small)
+    for name, values in _channels(thumb).items():
+        # the choice and the lighting are made on the thumbnail
+        light = _Lighting(values, f, img.shape[:2])
+        flat, model = light.flatten(values, f)
+        scale = 1.0 if model is None else float(np.median(model))  # of the flat values
         t, eta, contrast = _otsu(flat.ravel())
         score = (contrast * scale >= MIN_CONTRAST, eta)  # a faint channel (chroma of grey) loses
         if best is None or score > best[1]:
-            best = (name, score, contrast * scale)
-    name, _, contrast = best
-    smooth = ndimage.gaussian_filter(channels[name], _SMOOTH_PX)
+            best = (name, score, contrast * scale, light, flat, t, values)
+    name, _, contrast, light, flat, t, thumb_values = best
     if contrast < MIN_CONTRAST:
         raise DataError(f"nothing stands out from the background (contrast {contrast:.3f} "
                         f"< {MIN_CONTRAST} in every channel)")
-    values = _flatten(smooth)[0]
+    # lighting again, now fitted to the background class only (grown by a block)
+    below = np.mean(flat[:top_thumb] > t) > 0.5  # the background fills the top rows
+    fg = flat < t if below else flat > t
+    bg = ndimage.maximum_filter(fg.view(np.uint8), size=3) == 0
+    if bg.sum() * f * f > 100:
+        again = _Lighting(thumb_values, f, img.shape[:2], use=bg)
+        if again.coef is not None:
+            light = again
+    # the final threshold at full resolution
+    smooth = ndimage.gaussian_filter(_channels(img, name, full_scale), _SMOOTH_PX)
+    values = light.flatten(smooth)[0]
     t = _otsu(values[::2, ::2].ravel())[0]
-    below = np.mean(values[:top_rows] > t) > 0.5  # the background fills the top rows
+    below = np.mean(values[:top_rows] > t) > 0.5
     fg = values < t if below else values > t
-    # lighting again, now fitted to the background class only, and a final threshold
-    bg = ndimage.maximum_filter(fg.view(np.uint8), size=7) == 0
-    if bg.sum() > 100:
-        values = _flatten(smooth, bg)[0]
-        t = _otsu(values[::2, ::2].ravel())[0]
-        below = np.mean(values[:top_rows] > t) > 0.5
-        fg = values < t if below else values > t
     return fg, values, t, name, "below" if below else "above"
 
 
 def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float | None = None,
                   band: tuple[float, float] = DEFAULT_BAND, png: str | Path | None = None,
-                  name: str | None = None) -> PhotoMeasurement:
+                  name: str | None = None, save_png=None) -> PhotoMeasurement:
     """Measure the angle of repose in one photo.
 
     Parameters
@@ -268,6 +338,8 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
     band : height fractions between which each flank is fitted.
     png : write the annotated photo here.
     name : name to report (default: the file name).
+    save_png : ``save_png(path, rgb)`` writes the annotated pixels (default
+        :func:`write_png`; a batch writes in a thread of its own).
 
     Raises
     ------
@@ -277,18 +349,18 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
     """
     if isinstance(photo, (str, os.PathLike)):
         name = name or str(photo)
-        full = load_photo(photo)
+        photo = _read(photo)
     else:
         name = name or "<array>"
-        full = _as_rgb(photo, name)
-    x0, y0, x1, y1 = _check_roi(roi, full.shape, name)
-    img = full[y0:y1, x0:x1]
+    pixels, full_scale = _pixels(photo, name)
+    x0, y0, x1, y1 = _check_roi(roi, pixels.shape, name)
+    img = pixels[y0:y1, x0:x1]
     rows, cols = img.shape[:2]
     if base_y is not None and not y0 < base_y <= y1:
         raise DataError(f"base line row {base_y} is outside the photo or region of interest "
                         f"(rows {y0}..{y1}) of '{name}'.")
     try:
-        fg, values, t, channel, polarity = segment(img)
+        fg, values, t, channel, polarity = segment(img, full_scale=full_scale)
     except DataError as exc:
         raise DataError(f"no heap found in photo '{name}': {exc}.") from None
     base_local = None if base_y is None else float(base_y) - y0
@@ -364,7 +436,8 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
         png=str(png) if png is not None else None,
     )
     if png is not None:
-        plot_photo(full, m, (x0, y0, x1, y1), scale, png)
+        picture = pixels if pixels.dtype == np.uint8 else pixels / full_scale
+        plot_photo(picture, m, (x0, y0, x1, y1), scale, png, save_png)
     return m
 
 
@@ -382,15 +455,18 @@ def _check_roi(roi, shape, name):
     return x0, y0, x1, y1
 
 
-def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path) -> None:
-    """Write the photo with the base line (yellow), the region of interest (yellow box),
-    the fitted edge points (blue left, red right; rejected ones orange) and the fitted
-    lines from the base to the apex height. Drawn straight into the pixels, which is
-    fast; the angles are in the table and the JSON."""
-    from PIL import Image
+def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path,
+               save_png=None) -> None:
+    """Write the photo (float RGB in 0..1, or 8-bit RGB) with the base line (yellow),
+    the region of interest (yellow box), the fitted edge points (blue left, red right;
+    rejected ones orange) and the fitted lines from the base to the apex height. Drawn
+    straight into the pixels, which is fast; the angles are in the table and the JSON."""
     from skimage.draw import line, rectangle_perimeter
 
-    img = (np.clip(full, 0, 1) * 255).astype(np.uint8).copy()
+    if full.dtype == np.uint8:
+        img = full.copy()
+    else:
+        img = (np.clip(full, 0, 1) * 255).astype(np.uint8)
     rows, cols = img.shape[:2]
     x0, y0, x1, y1 = roi
     yellow, orange = (255, 220, 0), (255, 140, 0)
@@ -415,7 +491,34 @@ def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path) -
             ok = (rr >= 0) & (rr < rows) & (cc >= 0) & (cc < cols)
             img[rr[ok], cc[ok]] = colour
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(img).save(path, format="PNG", compress_level=1)  # level 6 costs ~1 s
+    (save_png or write_png)(path, img)
+
+
+def write_png(path, rgb: np.ndarray) -> None:
+    """Write 8-bit RGB pixels as a PNG file (ISO/IEC 15948:2004): every row with the
+    "Sub" filter (each byte minus the one a pixel to its left) and run-length deflate.
+    Four times faster than Pillow's adaptive filters, at a similar size for photos."""
+    import struct
+    import zlib
+
+    rgb = np.ascontiguousarray(rgb, dtype=np.uint8)
+    rows, cols = rgb.shape[:2]
+    flat = rgb.reshape(rows, 3 * cols)
+    data = np.empty((rows, 3 * cols + 1), np.uint8)
+    data[:, 0] = 1  # filter type Sub
+    data[:, 1:4] = flat[:, :3]
+    np.subtract(flat[:, 3:], flat[:, :-3], out=data[:, 4:])  # modulo 256
+    deflate = zlib.compressobj(1, zlib.DEFLATED, 15, 9, zlib.Z_RLE)
+    idat = deflate.compress(data) + deflate.flush()
+
+    def chunk(tag: bytes, payload: bytes) -> bytes:
+        crc = zlib.crc32(payload, zlib.crc32(tag))
+        return struct.pack(">I", len(payload)) + tag + payload + struct.pack(">I", crc)
+
+    header = struct.pack(">IIBBBBB", cols, rows, 8, 2, 0, 0, 0)  # 8 bit, RGB, no interlace
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", idat)
+                + chunk(b"IEND", b""))
 
 
 @dataclass(frozen=True)
@@ -426,19 +529,42 @@ class PhotoBatch:
     ----------
     measurements : the photos that could be measured, in the order given.
     failures : ``(photo, sentence)`` of each photo that could not.
-    table : one row per photo (failed ones with their error), column ``outlier``
-        flags angles whose modified z-score exceeds :data:`OUTLIER_Z`.
+    rows : one dict per photo (failed ones with their error and NaN angles): the
+        columns of :data:`TABLE_COLUMNS`; ``outlier`` flags angles whose modified
+        z-score exceeds :data:`OUTLIER_Z`.
     summary : mean, sd, n and 95 % CI of the angles of all measured photos
         (outliers flagged, not removed).
     """
 
     measurements: tuple[PhotoMeasurement, ...]
     failures: tuple[tuple[str, str], ...]
-    table: pd.DataFrame
+    rows: tuple[dict, ...]
     summary: Summary | None
 
+    @property
+    def table(self):
+        """The rows as a :class:`pandas.DataFrame`."""
+        import pandas as pd
+
+        return pd.DataFrame(list(self.rows), columns=list(TABLE_COLUMNS))
+
+    def records(self) -> list[dict]:
+        """The rows with ``None`` for NaN (JSON-ready)."""
+        return [{k: None if isinstance(v, float) and v != v else v for k, v in r.items()}
+                for r in self.rows]
+
+    def write_csv(self, path) -> None:
+        """Write the rows as CSV, formatted as ``self.table.to_csv(path, index=False)``
+        would (empty cells for NaN and None) without importing pandas."""
+        import csv
+
+        with open(path, "w", newline="") as f:
+            out = csv.writer(f, lineterminator="\n")
+            out.writerow(TABLE_COLUMNS)
+            out.writerows([_csv_cell(r[k]) for k in TABLE_COLUMNS] for r in self.records())
+
     def to_dict(self) -> dict:
-        records = self.table.replace({np.nan: None}).to_dict(orient="records")
+        records = self.records()
         return {
             "photos": records,
             "summary": None if self.summary is None else {
@@ -447,6 +573,10 @@ class PhotoBatch:
                 "failed": [p for p, _ in self.failures],
             },
         }
+
+
+def _csv_cell(v):
+    return "" if v is None else repr(v) if isinstance(v, float) else v
 
 
 def flag_outliers(values, z: float = OUTLIER_Z) -> np.ndarray:
@@ -469,12 +599,37 @@ def _measure_one(args):
         return str(exc)
 
 
+def _measure_in_threads(jobs, threads: int) -> list:
+    """:func:`_measure_one` of each job, ``threads`` photos at a time in this process,
+    the pictures written in one more thread (PNG decoding, the image filters and zlib
+    let other threads run, so two threads use two cores well)."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    room = threading.BoundedSemaphore(2 * threads)  # pictures waiting in memory
+    written = []
+    with ThreadPoolExecutor(1) as writer:
+        def save(path, rgb):
+            room.acquire()
+            future = writer.submit(write_png, path, rgb)
+            future.add_done_callback(lambda _: room.release())
+            written.append(future)
+
+        with ThreadPoolExecutor(threads) as pool:
+            jobs = [(p, {**kw, "save_png": save}) for p, kw in jobs]
+            results = list(pool.map(_measure_one, jobs))
+        for future in written:
+            future.result()  # a picture that could not be written fails the batch, as before
+    return results
+
+
 def measure_photos(photos, roi=None, base_y=None, mm_per_px=None, band=DEFAULT_BAND,
                    out_dir: str | Path | None = None, workers: int = 1) -> PhotoBatch:
     """Measure a batch of photos; a bad photo is reported and the batch goes on.
 
     ``out_dir`` receives one annotated PNG per photo (``<stem>.png``). ``workers > 1``
-    measures photos in that many processes.
+    measures photos in that many processes; otherwise two threads of this process
+    measure them (one on a single-core machine).
     """
     photos = [str(p) for p in photos]
     jobs = []
@@ -484,26 +639,22 @@ def measure_photos(photos, roi=None, base_y=None, mm_per_px=None, band=DEFAULT_B
             kw["png"] = str(Path(out_dir) / f"{Path(p).stem}.png")
         jobs.append((p, kw))
     if workers > 1 and len(jobs) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
         with ProcessPoolExecutor(max_workers=workers) as pool:
             results = list(pool.map(_measure_one, jobs))
     else:
-        results = [_measure_one(j) for j in jobs]
+        results = _measure_in_threads(jobs, min(2, os.cpu_count() or 1))
     good = tuple(r for r in results if isinstance(r, PhotoMeasurement))
     failures = tuple((p, r) for p, r in zip(photos, results) if isinstance(r, str))
+    outlier = iter(flag_outliers([m.angle_deg for m in good]))
     rows = []
     for p, r in zip(photos, results):
         if isinstance(r, PhotoMeasurement):
-            rows.append({"photo": p, "angle_deg": r.angle_deg, "left_deg": r.left_deg,
-                         "right_deg": r.right_deg, "r2": r.r2, "height": r.height,
-                         "unit": r.unit, "png": r.png, "error": None})
+            rows.append({"photo": p, **{k: getattr(r, k) for k in TABLE_COLUMNS[1:-2]},
+                         "error": None, "outlier": bool(next(outlier))})
         else:
-            rows.append({"photo": p, "angle_deg": np.nan, "left_deg": np.nan,
-                         "right_deg": np.nan, "r2": np.nan, "height": np.nan,
-                         "unit": None, "png": None, "error": r})
-    table = pd.DataFrame(rows)
-    measured = table["error"].isna().to_numpy()
-    outlier = np.zeros(len(table), dtype=bool)
-    outlier[measured] = flag_outliers(table.loc[measured, "angle_deg"])
-    table["outlier"] = outlier
+            rows.append({"photo": p, **dict.fromkeys(TABLE_COLUMNS[1:6], float("nan")),
+                         "unit": None, "png": None, "error": r, "outlier": False})
     summary = summarize([m.angle_deg for m in good]) if good else None
-    return PhotoBatch(good, failures, table, summary)
+    return PhotoBatch(good, failures, tuple(rows), summary)

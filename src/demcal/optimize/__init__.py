@@ -6,7 +6,11 @@ design box from many starts and returns an :class:`Optimization` with the distin
 solutions and the factor ranges of the solution set (D >= 0.99).
 """
 
-from demcal.optimize.desirability import Goal, overall_desirability, parse_goal
-from demcal.optimize.search import Optimization, optimize, reachable_range
+from demcal._lazy import lazy_exports
 
 __all__ = ["Goal", "parse_goal", "overall_desirability", "optimize", "Optimization", "reachable_range"]
+
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "desirability": ["Goal", "overall_desirability", "parse_goal"],
+    "search": ["Optimization", "optimize", "reachable_range"],
+})

@@ -4,48 +4,45 @@ from __future__ import annotations
 
 import json
 import sys
+from typing import TYPE_CHECKING
 
-from demcal.doe.factors import parse_factor
+from demcal._cliutil import add_json, add_model_options, add_runs_command, read_runs_from_args
 from demcal.errors import ConfigError
-from demcal.optimize.desirability import Goal, parse_goal
-from demcal.optimize.search import optimize
-from demcal.rsm.data import read_runs
-from demcal.rsm.fit import fit_response_surface
-from demcal.rsm.reduce import backward_elimination
+
+if TYPE_CHECKING:
+    from demcal.optimize.desirability import Goal
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "optimize",
+    p = add_runs_command(
+        subparsers, "optimize", run,
         help="find factor settings that give target responses (desirability)",
         description="Fit a response surface per response and maximise the Derringer-Suich "
         "desirability inside the design box from many starts. Prints the distinct "
         "solutions and the range of every factor over the solution set (D >= threshold).",
     )
-    p.add_argument("runs_csv", help="CSV with one row per run")
     p.add_argument("--response", action="append", default=[], help="response column (repeatable)")
     p.add_argument("--target", action="append", type=float, default=[],
                    help="target value, paired in order with --response")
     p.add_argument("--goal", action="append", default=[], metavar="RESP=KIND[:...]",
                    help="goal such as y=max, y=min, y=range:10:20, y=target:31.07:importance=5")
-    p.add_argument("--factors", help="factor columns, comma separated (default: all numeric "
-                   "columns except responses, run and std_order)")
-    p.add_argument("--factor", action="append", default=[], metavar="NAME=LOW:HIGH",
-                   help="actual low/high levels of a factor, for actual-unit answers")
-    p.add_argument("--model", default="quadratic", help="linear, 2fi, quadratic or cubic")
-    p.add_argument("--reduce", type=float, default=None, metavar="ALPHA",
-                   help="reduce each model by backward elimination first")
+    add_model_options(
+        p, factors_help="factor columns, comma separated (default: all numeric columns except "
+        "responses, run and std_order)",
+        factor_help="actual low/high levels of a factor, for actual-unit answers",
+        reduce_help="reduce each model by backward elimination first")
     p.add_argument("--starts", type=int, default=30, help="random starting points")
     p.add_argument("--seed", type=int, default=0, help="seed of the starting points")
     p.add_argument("--threshold", type=float, default=0.99,
                    help="desirability that defines the solution set")
     p.add_argument("--max-solutions", type=int, default=None, help="print at most this many")
     p.add_argument("--plot", help="write the solution-set plot to this PNG or SVG file")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run)
+    add_json(p)
 
 
 def goals_from_args(args) -> list[Goal]:
+    from demcal.optimize.desirability import Goal, parse_goal
+
     goals = [parse_goal(s) for s in args.goal]
     given = {g.response for g in goals}
     plain = [r for r in args.response if r not in given]
@@ -68,11 +65,13 @@ def run(args) -> int:
         raise ConfigError(f"--threshold must lie in (0, 1], not {args.threshold}.")
     if args.starts < 1:
         raise ConfigError("--starts must be at least 1.")
+    from demcal.optimize.search import optimize
+    from demcal.rsm.fit import fit_response_surface
+    from demcal.rsm.reduce import backward_elimination
+
     goals = goals_from_args(args)
     responses = [g.response for g in goals]
-    names = [s.strip() for s in args.factors.split(",") if s.strip()] if args.factors else None
-    levels = {f.name: f for f in (parse_factor(s) for s in args.factor)}
-    runs = read_runs(args.runs_csv, responses, names, levels)
+    runs = read_runs_from_args(args, responses)
     models = {}
     for r in responses:
         m = fit_response_surface(runs.coded, runs.responses[r], runs.factors, args.model, r)

@@ -159,7 +159,9 @@ def steel(name: str = "steel") -> Material:
 # --------------------------------------------------------------------------------------
 #: Column indices of :func:`pair_table` rows.
 P_ESTAR, P_GSTAR, P_BETA, P_E, P_MU_S, P_MU_R, P_YMIN, P_ZETA, P_XI, P_ETA_R = range(10)
-N_PAIR_PARAMS = 10
+#: sqrt(St / Sn) = sqrt(4 G* / E*) of Hertz-Mindlin (saves a square root per contact)
+P_SQ_ST_SN = 10
+N_PAIR_PARAMS = 11
 
 
 def _beta(e: float) -> float:
@@ -269,4 +271,5 @@ def pair_row(mi: Material, mj: Material, it: Interaction) -> np.ndarray:
     row[P_ZETA] = it.damping_factor
     row[P_XI] = it.stiffness_factor
     row[P_ETA_R] = it.rolling_damping
+    row[P_SQ_ST_SN] = math.sqrt(4.0 * row[P_GSTAR] / row[P_ESTAR])
     return row

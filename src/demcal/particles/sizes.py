@@ -74,11 +74,26 @@ class SizeDistribution:
         return float(np.mean(self.sample(n, seed) ** 3))
 
 
+class _Interval(SizeDistribution):
+    """A distribution on ``[low, high]``: the bounds are its extreme scale factors."""
+
+    @property
+    def max_scale(self):
+        return float(self.high)
+
+    @property
+    def min_scale(self):
+        return float(self.low)
+
+
 @dataclass(frozen=True)
-class Fixed(SizeDistribution):
+class Fixed(_Interval):
     """Every particle at scale ``value``."""
 
     value: float = 1.0
+
+    #: Both bounds are the fixed scale factor.
+    low = high = property(lambda self: self.value)
 
     def __post_init__(self):
         _finite_positive(self.value, "fixed scale factor")
@@ -86,20 +101,12 @@ class Fixed(SizeDistribution):
     def sample(self, n, seed=None):
         return np.full(int(n), float(self.value))
 
-    @property
-    def max_scale(self):
-        return float(self.value)
-
-    @property
-    def min_scale(self):
-        return float(self.value)
-
     def mean_cube(self, n=0, seed=0):
         return float(self.value) ** 3
 
 
 @dataclass(frozen=True)
-class Uniform(SizeDistribution):
+class Uniform(_Interval):
     """Scale factor uniform in ``[low, high]``."""
 
     low: float = 0.5
@@ -114,21 +121,13 @@ class Uniform(SizeDistribution):
     def sample(self, n, seed=None):
         return as_generator(seed).uniform(self.low, self.high, int(n))
 
-    @property
-    def max_scale(self):
-        return float(self.high)
-
-    @property
-    def min_scale(self):
-        return float(self.low)
-
     def mean_cube(self, n=0, seed=0):
         a, b = float(self.low), float(self.high)
-        return a if a == b else (b**4 - a**4) / (4.0 * (b - a))
+        return a**3 if a == b else (b**4 - a**4) / (4.0 * (b - a))
 
 
 @dataclass(frozen=True)
-class Normal(SizeDistribution):
+class Normal(_Interval):
     """Normal scale factor with ``mean`` and ``std``, truncated to ``[low, high]``
     (defaults: mean -/+ 3 std, and never below 1 % of the mean)."""
 
@@ -168,14 +167,6 @@ class Normal(SizeDistribution):
                 f"N({self.mean}, {self.std}): widen it."
             )
         return out
-
-    @property
-    def max_scale(self):
-        return float(self.high)
-
-    @property
-    def min_scale(self):
-        return float(self.low)
 
 
 @dataclass(frozen=True)

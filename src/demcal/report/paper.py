@@ -19,6 +19,7 @@ campaign report can reuse them for its own DEM results.
 from __future__ import annotations
 
 import importlib.resources
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,7 +41,8 @@ DOI = "10.25165/j.ijabe.20201304.5586"
 
 @dataclass(frozen=True)
 class PaperStudy:
-    """One response-surface study of the paper, with the numbers it printed."""
+    """One response-surface study of the paper, with the numbers it printed (package data
+    ``paper_studies.toml``)."""
 
     key: str
     title: str
@@ -60,72 +62,27 @@ class PaperStudy:
     surfaces: tuple[tuple[int, int], ...]
 
 
-REPOSE = PaperStudy(
-    key="repose",
-    title="Angle of repose β between particles (paper Tables 3-6, Eq. 4)",
-    data_file="paper_table4_repose_bbd.csv",
-    response="repose_angle_deg",
-    factors=(
-        Factor("A", 0.5, 0.7, "-", "coefficient of restitution e"),
-        Factor("B", 0.3, 0.5, "-", "static friction coefficient μ"),
-        Factor("C", 0.1, 0.3, "-", "dynamic friction coefficient γ"),
-        Factor("D", 0.0, 0.2, "-", "damping coefficient ζ"),
-    ),
-    tables="Tables 3 (levels), 4 (runs), 5 (ANOVA), 6 (calibrated parameters)",
-    anova_table="Table 5",
-    equation_name="Eq. (4)",
-    printed_equation={"Intercept": 40.03, "A": -0.57, "B": 2.93, "C": 6.05, "D": -0.05,
-                      "A*B": -0.11, "A*C": 1.1, "A*D": -1.75, "B*C": 1.88, "B*D": -1.16,
-                      "C*D": 1.59, "A^2": -6.75e-3, "B^2": -0.66, "C^2": -1.53, "D^2": -3e-3},
-    printed_anova={
-        "Model": ("43.59", "23.38", "< 0.0001"), "A": ("3.91", "2.1", "0.1696"),
-        "B": ("103.25", "55.38", "< 0.0001"), "C": ("438.63", "235.25", "< 0.0001"),
-        "D": ("0.03", "0.016", "0.9009"), "A*B": ("0.046", "0.025", "0.8771"),
-        "A*C": ("4.86", "2.61", "0.1286"), "A*D": ("12.29", "6.59", "0.0224"),
-        "B*C": ("14.14", "7.58", "0.0155"), "B*D": ("5.36", "2.87", "0.1121"),
-        "C*D": ("10.11", "5.42", "0.0354"), "A^2": ("2.96E-04", "1.59E-04", "0.9901"),
-        "B^2": ("2.81", "1.51", "0.2399"), "C^2": ("15.27", "8.19", "0.0126"),
-        "D^2": ("5.84E-05", "3.13E-05", "0.9956"), "Lack of Fit": ("2.43", "5.46", "0.0581"),
-    },
-    printed_fit={"r2": 0.959, "adj_r2": 0.918, "cv_percent": 3.49, "pred_r2": 0.7755},
-    targets=(("6.26±1.5 %", 31.07), ("14.1±2.1 %", 39.88)),
-    points=(("6.26±1.5 %", (0.58, 0.30, 0.10, 0.12)), ("14.1±2.1 %", (0.69, 0.38, 0.23, 0.19))),
-    points_table="Table 6",
-    verification=(29.66, 40.99),
-    surfaces=((1, 2), (2, 3), (0, 3)),  # Fig. 5: BC, CD, AD
-)
+def _tuples(value):
+    """TOML arrays as tuples (nested), tables as dicts of the same."""
+    if isinstance(value, list):
+        return tuple(_tuples(v) for v in value)
+    if isinstance(value, dict):
+        return {k: _tuples(v) for k, v in value.items()}
+    return value
 
-SLIDING = PaperStudy(
-    key="sliding",
-    title="Static sliding angle θ on mulch film (paper Tables 7-10, Eq. 6)",
-    data_file="paper_table8_sliding_bbd.csv",
-    response="sliding_angle_deg",
-    factors=(
-        Factor("E", 0.5, 0.7, "-", "coefficient of restitution e′"),
-        Factor("F", 0.4, 0.6, "-", "static friction coefficient μ′"),
-        Factor("G", 0.05, 0.25, "-", "dynamic friction coefficient γ′"),
-    ),
-    tables="Tables 7 (levels), 8 (runs), 9 (ANOVA), 10 (calibrated parameters)",
-    anova_table="Table 9",
-    equation_name="Eq. (6)",
-    printed_equation={"Intercept": 31.44, "E": 0.4, "F": 4.85, "G": 0.38, "E*F": -0.075,
-                      "E*G": -0.07, "F*G": -0.055, "E^2": -0.57, "F^2": -0.35, "G^2": 0.095},
-    printed_anova={
-        "Model": ("21.4", "363.67", "< 0.0001"), "E": ("1.3", "22.02", "0.0022"),
-        "F": ("188.18", "3197.47", "< 0.0001"), "G": ("1.13", "19.12", "0.0033"),
-        "E*F": ("0.023", "0.38", "0.5559"), "E*G": ("0.02", "0.33", "0.582"),
-        "F*G": ("0.012", "0.21", "0.664"), "E^2": ("1.37", "23.29", "0.0019"),
-        "F^2": ("0.5", "8.54", "0.0223"), "G^2": ("0.038", "0.64", "0.4504"),
-        "Lack of Fit": ("0.088", "2.35", "0.2142"),
-    },
-    printed_fit={"r2": 0.998, "adj_r2": 0.995, "cv_percent": 0.78, "pred_r2": 0.9770},
-    targets=(("6.26±1.5 %", 25.42), ("14.1±2.1 %", 30.46)),
-    points=(("6.26±1.5 %", (0.51, 0.40, 0.12)), ("14.1±2.1 %", (0.53, 0.48, 0.22))),
-    points_table="Table 10",
-    verification=(25.64, 30.69),
-    surfaces=((0, 1),),  # Fig. 9 shows single-factor effects: see the perturbation plot
-)
 
+def _load_studies() -> list[PaperStudy]:
+    """The studies of the package data file ``paper_studies.toml``, in file order."""
+    path = importlib.resources.files("demcal") / "data" / "paper_studies.toml"
+    studies = []
+    for key, d in tomllib.loads(path.read_text(encoding="utf-8")).items():
+        d = _tuples(d)
+        d["factors"] = tuple(Factor(*f) for f in d["factors"])
+        studies.append(PaperStudy(key=key, **d))
+    return studies
+
+
+REPOSE, SLIDING = _load_studies()
 STUDIES = (REPOSE, SLIDING)
 
 

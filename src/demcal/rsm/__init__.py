@@ -7,14 +7,18 @@ squares, lack of fit vs pure error), fit statistics, coefficient table and diagn
 while keeping it hierarchical; :func:`read_runs` loads and codes a run table.
 """
 
-from demcal.rsm.data import Runs, read_runs, runs_from_frame
-from demcal.rsm.fit import FitStatistics, ResponseSurface, fit_response_surface
-from demcal.rsm.reduce import Reduction, backward_elimination
-from demcal.rsm.summary import FitSummary, fit_summary
-from demcal.rsm.terms import display_name, model_terms, term_name
+from demcal._lazy import lazy_exports
 
 __all__ = [
     "fit_response_surface", "ResponseSurface", "FitStatistics", "fit_summary", "FitSummary",
     "backward_elimination", "Reduction", "read_runs", "runs_from_frame", "Runs",
     "model_terms", "term_name", "display_name",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, {
+    "data": ["Runs", "read_runs", "runs_from_frame"],
+    "fit": ["FitStatistics", "ResponseSurface", "fit_response_surface"],
+    "reduce": ["Reduction", "backward_elimination"],
+    "summary": ["FitSummary", "fit_summary"],
+    "terms": ["display_name", "model_terms", "term_name"],
+})

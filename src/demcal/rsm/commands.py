@@ -4,43 +4,40 @@ from __future__ import annotations
 
 import json
 import sys
+from typing import TYPE_CHECKING
 
-import pandas as pd
-
-from demcal.doe.factors import parse_factor
+from demcal._cliutil import add_json, add_model_options, add_runs_command, read_runs_from_args
 from demcal.errors import ConfigError
-from demcal.rsm.data import read_runs
-from demcal.rsm.fit import ResponseSurface, fit_response_surface
-from demcal.rsm.reduce import backward_elimination
-from demcal.rsm.summary import fit_summary
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from demcal.rsm.fit import ResponseSurface
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser(
-        "analyze",
+    p = add_runs_command(
+        subparsers, "analyze", run,
         help="fit a response surface: ANOVA, fit statistics, equations",
         description="Fit a polynomial response surface in coded factors and print the "
         "Design-Expert style ANOVA (partial sums of squares, lack of fit), fit statistics, "
         "coefficients and the equations in coded and actual units.",
     )
-    p.add_argument("runs_csv", help="CSV with one row per run")
     p.add_argument("--response", required=True, help="response column")
-    p.add_argument("--factors", help="factor columns, comma separated (default: every numeric "
-                   "column except the response, run and std_order)")
-    p.add_argument("--factor", action="append", default=[], metavar="NAME=LOW:HIGH",
-                   help="actual low/high levels of a factor (for the actual-units equation)")
-    p.add_argument("--model", default="quadratic", help="linear, 2fi, quadratic or cubic")
-    p.add_argument("--reduce", type=float, default=None, metavar="ALPHA",
-                   help="backward elimination at this significance level, keeping hierarchy")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.set_defaults(func=run)
+    add_model_options(
+        p, factors_help="factor columns, comma separated (default: every numeric column except "
+        "the response, run and std_order)",
+        factor_help="actual low/high levels of a factor (for the actual-units equation)",
+        reduce_help="backward elimination at this significance level, keeping hierarchy")
+    add_json(p)
 
 
 def fit_from_args(args) -> tuple[ResponseSurface, list[str]]:
     """Read, fit and (optionally) reduce as ``demcal analyze`` does; returns model and notes."""
-    names = [s.strip() for s in args.factors.split(",") if s.strip()] if args.factors else None
-    levels = {f.name: f for f in (parse_factor(s) for s in args.factor)}
-    runs = read_runs(args.runs_csv, [args.response], names, levels)
+    from demcal.rsm.fit import fit_response_surface
+    from demcal.rsm.reduce import backward_elimination
+
+    runs = read_runs_from_args(args, [args.response])
     model = fit_response_surface(runs.coded, runs.responses[args.response], runs.factors,
                                  args.model, args.response)
     notes = list(model.notes)
@@ -61,6 +58,8 @@ def _fmt(df: pd.DataFrame) -> str:
 
 
 def run(args) -> int:
+    from demcal.rsm.summary import fit_summary
+
     model, notes = fit_from_args(args)
     for n in notes:
         print(f"demcal: note: {n}", file=sys.stderr)

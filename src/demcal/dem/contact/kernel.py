@@ -2,19 +2,21 @@
 
 History row layout (``HIST_WIDTH`` float64 per contact): 0:3 tangential displacement
 [m], 3 residual overlap delta0 [m] (Hysteretic Spring), 4:7 rolling spring torque
-[N m] (type C), 7 unused.
+[N m] (type C), 7 contact flag (1 while touching: a rebuild carries only such rows).
 """
+
+import math
 
 from numba import njit
 
 from demcal.particles.materials import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR,
-                                        P_MU_R, P_MU_S, P_XI, P_YMIN, P_ZETA)
+                                        P_MU_R, P_MU_S, P_SQ_ST_SN, P_XI, P_YMIN, P_ZETA)
 
 from .damping import normal_damping
 from .normal import loading_stiffness, normal_force
-from .registry import NORMAL_HYSTERETIC
+from .registry import NORMAL_HERTZ, NORMAL_HYSTERETIC, TANGENTIAL_MINDLIN
 from .rolling import rolling_torque
-from .tangential import tangential_force
+from .tangential import tangential_force, tangential_stiffness
 
 HIST_WIDTH = 8
 H_DELTA0 = 3
@@ -54,10 +56,15 @@ def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
     beta = table[mi, mj, P_BETA]
     ymin = table[mi, mj, P_YMIN]
     vn = vrx * nx + vry * ny + vrz * nz
-    fs, k, d0 = normal_force(models[0], delta, hist[h, H_DELTA0], r_eff, table[mi, mj, P_ESTAR],
-                             ymin, e)
+    # sqrt(R* delta) is shared by the Hertz spring and the Mindlin tangential spring
+    sq = 0.0
+    if models[0] == NORMAL_HERTZ or models[2] == TANGENTIAL_MINDLIN:
+        sq = math.sqrt(r_eff * delta)
+    fs, k, d0 = normal_force(models[0], delta, hist[h, H_DELTA0], r_eff, sq,
+                             table[mi, mj, P_ESTAR], ymin, e)
     hist[h, H_DELTA0] = d0
-    fd = normal_damping(models[1], beta, table[mi, mj, P_ZETA], k, m_eff, vn)
+    sqkm = math.sqrt(k * m_eff) if k > 0.0 else 0.0
+    fd = normal_damping(models[1], beta, table[mi, mj, P_ZETA], sqkm, vn)
     fn = fs + fd
     if models[0] == NORMAL_HYSTERETIC and fn < 0.0:
         fn = 0.0
@@ -65,9 +72,12 @@ def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
     vty = vry - vn * ny
     vtz = vrz - vn * nz
     k1 = loading_stiffness(r_eff, ymin)
-    ftx, fty, ftz = tangential_force(models[2], hist, h, nx, ny, nz, vtx, vty, vtz, dt,
-                                     delta, r_eff, m_eff, table[mi, mj, P_GSTAR], beta, k1,
-                                     table[mi, mj, P_XI], table[mi, mj, P_MU_S], fn)
+    kt, ct = tangential_stiffness(models[2], sq, m_eff, table[mi, mj, P_GSTAR], beta, k1,
+                                  table[mi, mj, P_XI],
+                                  sqkm if models[0] == NORMAL_HERTZ else 0.0,
+                                  table[mi, mj, P_SQ_ST_SN])
+    ftx, fty, ftz = tangential_force(kt, ct, hist, h, nx, ny, nz, vtx, vty, vtz, dt,
+                                     table[mi, mj, P_MU_S], fn)
     fpos = fn if fn > 0.0 else 0.0
     kr = k if k > 0.0 else k1
     tix, tiy, tiz, tjx, tjy, tjz = rolling_torque(

@@ -16,16 +16,14 @@ stiffness ``k`` [N/m] the damping slot uses, and the updated residual overlap [m
   ``fn = k delta``.
 """
 
-import math
-
 from numba import njit
 
 from .registry import NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def hertz(delta, r_eff, estar):
-    sq = math.sqrt(r_eff * delta)
+def hertz(delta, sq, estar):
+    """Hertz spring force and Sn, given ``sq = sqrt(R* delta)``."""
     return 4.0 / 3.0 * estar * sq * delta, 2.0 * estar * sq
 
 
@@ -43,10 +41,11 @@ def hysteretic(delta, delta0, r_eff, ymin, e):
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def normal_force(model, delta, delta0, r_eff, estar, ymin, e):
-    """Dispatch on the normal slot; see the module docstring."""
+def normal_force(model, delta, delta0, r_eff, sq, estar, ymin, e):
+    """Dispatch on the normal slot; see the module docstring. ``sq`` is
+    ``sqrt(R* delta)`` (computed once per contact by the caller when a slot needs it)."""
     if model == NORMAL_HERTZ:
-        fn, k = hertz(delta, r_eff, estar)
+        fn, k = hertz(delta, sq, estar)
         return fn, k, delta0
     if model == NORMAL_HYSTERETIC:
         return hysteretic(delta, delta0, r_eff, ymin, e)

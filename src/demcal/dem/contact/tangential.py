@@ -26,16 +26,29 @@ SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
-def tangential_force(model, hist, h, nx, ny, nz, vtx, vty, vtz, dt,
-                     delta, r_eff, m_eff, gstar, beta, k1, xi, mu_s, fn):
-    """Tangential force on particle i [N]; updates ``hist[h, 0:3]``."""
+def tangential_stiffness(model, sq, m_eff, gstar, beta, k1, xi, hertz_sqkm, sq_st_sn):
+    """``(kt, ct)``: spring stiffness [N/m] and damping coefficient [N s/m].
+
+    ``sq = sqrt(R* delta)``. When the normal slot is Hertz, ``hertz_sqkm`` is its
+    ``sqrt(Sn m*)`` and ``sq_st_sn = sqrt(St/Sn) = sqrt(4 G*/E*)``, so that
+    ``sqrt(St m*)`` needs no square root of its own; otherwise ``hertz_sqkm`` is 0.
+    """
     if model == TANGENTIAL_MINDLIN:
-        kt = 8.0 * gstar * math.sqrt(r_eff * delta)
-        ct = 2.0 * SQRT_5_6 * beta * math.sqrt(kt * m_eff)
-    elif model == TANGENTIAL_LINEAR:
+        kt = 8.0 * gstar * sq
+        if hertz_sqkm > 0.0:
+            return kt, 2.0 * SQRT_5_6 * beta * hertz_sqkm * sq_st_sn
+        return kt, 2.0 * SQRT_5_6 * beta * math.sqrt(kt * m_eff)
+    if model == TANGENTIAL_LINEAR:
         kt = xi * k1
-        ct = 2.0 * beta * math.sqrt(kt * m_eff)
-    else:
+        return kt, 2.0 * beta * math.sqrt(kt * m_eff)
+    return 0.0, 0.0
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def tangential_force(kt, ct, hist, h, nx, ny, nz, vtx, vty, vtz, dt, mu_s, fn):
+    """Tangential force on particle i [N] (spring ``kt``, damping ``ct`` from
+    :func:`tangential_stiffness`); updates ``hist[h, 0:3]``."""
+    if kt <= 0.0:
         return 0.0, 0.0, 0.0
     sx = hist[h, 0]
     sy = hist[h, 1]
@@ -72,10 +85,10 @@ def tangential_force(model, hist, h, nx, ny, nz, vtx, vty, vtz, dt,
         fx *= r
         fy *= r
         fz *= r
-        if kt > 0.0:
-            sx = -fx / kt
-            sy = -fy / kt
-            sz = -fz / kt
+        ikt = 1.0 / kt
+        sx = -fx * ikt
+        sy = -fy * ikt
+        sz = -fz * ikt
     hist[h, 0] = sx
     hist[h, 1] = sy
     hist[h, 2] = sz

@@ -1,0 +1,53 @@
+"""Many velocity-Verlet steps in one compiled call.
+
+:func:`run_steps` strings together the same kernels the host calls one by one
+(``integrator.drift``, ``forces.pair_forces``, ``forces.wall_forces``,
+``integrator.gather_kick``) for up to ``nsteps`` steps, so a run pays Python's dispatch
+once per neighbour-list period instead of four times per step; results are bitwise those
+of the step-by-step path. It stops early, right after a drift, when the neighbour list
+must be rebuilt (a sphere moved more than half the skin since the last build, counting
+the walls' travel, or a position became NaN); the host then rebuilds and finishes that
+step. Walls keep their geometry during the call: the host only uses it while no wall
+needs re-placing, and accounts for walls that report a velocity through
+``travel_per_step``.
+"""
+
+import math
+
+from numba import njit
+
+from .forces import pair_forces, wall_forces
+from .integrator import drift, gather_kick
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, travel_per_step,
+              bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia, biso,
+              bmat, bfixed, bstart,
+              sbody, soffset, srad, spos, sref, sdsq, sacc,
+              p_start, p_nbr, p_hist, p_out, p_act, p_rev_start, p_rev,
+              q_start, q_wid, q_hist, q_out, q_act,
+              wkind, wparams, wvel, womega, worigin, wmat):
+    """Advance up to ``nsteps`` steps; returns ``(steps, rebuild, time, travel)``.
+
+    With ``rebuild`` true the last step has drifted but its forces are not evaluated:
+    the host rebuilds the lists, then evaluates forces and kicks.
+    """
+    nb = bpos.shape[0]
+    ns = spos.shape[0]
+    for k in range(nsteps):
+        mx = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
+                   bfixed, bstart, soffset, spos, sref, sdsq, 0, nb)
+        time += dt
+        travel += travel_per_step
+        if math.sqrt(mx) + travel > half_skin:
+            return k + 1, True, time, travel
+        pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, 0, ns)
+        wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                    bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind, wparams, wvel,
+                    womega, worigin, wmat, 0, ns)
+        gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                    binertia, bfixed, bstart, sacc, p_out, p_act, p_rev_start, p_rev, True,
+                    0, nb)
+    return nsteps, False, time, travel
