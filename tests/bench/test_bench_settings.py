@@ -97,7 +97,7 @@ def test_unknown_test_and_profile():
 
 @pytest.mark.parametrize("name, overrides, words", [
     ("repose-funnel", {"particles.count": 200000}, "base plate"),
-    ("repose-funnel", {"particles.count": 3000}, "funnel outlet"),
+    ("repose-funnel", {"particles.count": 8000}, "funnel outlet"),
     ("repose-funnel", {"geometry.outlet_diameter": 0.005}, "narrower than three"),
     ("repose-cylinder", {"geometry.cylinder_diameter": 0.01}, "narrower than four"),
     ("incline", {"geometry.container_diameter": 0.01}, "narrower than four"),

@@ -15,8 +15,11 @@ The simulation
   ``+x``. In the plate's frame this is exact up to the inertial forces of a frame turning
   at a constant rate (centrifugal ``omega^2 r`` and Coriolis ``2 omega v``): at the quick
   profile's 5 deg/s, 0.3 m from the spindle and up to the detection speed they are below
-  5e-4 g, and no wall motion has to be integrated. The tilt starts at ``incline.start_angle`` (lowered automatically to
-  ``atan(film.static_friction) - 5 deg`` when that is smaller).
+  5e-4 g, and no wall motion has to be integrated. The tilt starts at
+  ``incline.start_angle`` (default 5 deg; lowered automatically to
+  ``atan(film.static_friction) - 5 deg`` when that is smaller): low, so the bed is at rest
+  on the slope before it can slide (a bed set straight onto a 15 deg slope creeps from
+  the jolt and blurs the onset).
 * **Bottomless container.** A steel-coloured but *frictionless* cylinder (particle-container
   static and rolling friction 0) of diameter ``geometry.container_diameter`` x
   ``geometry.scale``, hovering a tenth of the smallest sphere radius above the film so it
@@ -33,7 +36,9 @@ The simulation
   ``incline.slide_speed`` (default 0.02 m/s). A block starting to slide on a plane tilted
   at a constant rate accelerates as ``a ~ g (theta - theta_c)`` so ``v ~ (t - t_c)^2``:
   the onset ``t_c`` is found by fitting a straight line to ``sqrt(v)`` against ``t`` over
-  the samples between 10 % and 100 % of the detection speed and extrapolating it to zero;
+  the final rise (the samples since ``v``, averaged over 25 ms so the rattle of a loose
+  bed does not count, last rose past 25 % of the detection speed) and extrapolating it
+  to zero;
   ``sliding_angle_deg`` is the tilt at ``t_c`` (the tilt at detection is also reported,
   as ``sliding_angle_detected_deg``). If the material is already moving when the tilt
   begins (a bed whose own angle of repose is below the start angle collapses rather than
@@ -64,6 +69,10 @@ from demcal.errors import ConfigError, SimulationError
 CHECK = 0.005
 #: Container yield speed per unit along-slope force / weight [m/s].
 V_REF = 1.0
+#: Onset fit: the final rise starts where the mean slope velocity, averaged over
+#: ONSET_SMOOTH samples (25 ms), last rose to ONSET_LOW x the detection speed.
+ONSET_LOW = 0.25
+ONSET_SMOOTH = 5
 
 
 def block_template(radius: float = 0.005):
@@ -91,7 +100,9 @@ class Incline(C.BenchExperiment):
                     choices=("follow", "remove")),
             Setting("incline.tilt_rate", C.per_profile(profile, 10.0, 5.0, 1.0), "deg/s",
                     "tilting rate of the plate", 0.01, 90.0),
-            Setting("incline.start_angle", 15.0, "deg", "angle at which tilting starts", 0.0, 80.0),
+            Setting("incline.start_angle", 5.0, "deg",
+                    "angle at which tilting starts (low, so the bed is at rest before it can slide)",
+                    0.0, 80.0),
             Setting("incline.max_angle", 60.0, "deg", "give up above this angle", 1.0, 89.0),
             Setting("incline.slide_speed", 0.02, "m/s",
                     "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
@@ -249,19 +260,28 @@ def _mean_x(sim) -> float:
     return float((st.masses * st.positions[:, 0]).sum() / st.masses.sum())
 
 
-def onset_angle(times, angles, speeds, v_detect) -> tuple[float, float]:
+def onset_angle(times, angles, speeds, v_detect, low: float = ONSET_LOW,
+                smooth: int = ONSET_SMOOTH) -> tuple[float, float]:
     """(onset angle, detection angle) [deg] from the sampled mean slope velocity.
 
-    ``sqrt(v)`` is fitted linearly in ``t`` over the last run of samples with
-    ``v >= 0.1 v_detect`` (up to the detection) and extrapolated to ``v = 0`` (at most
-    two fitted spans back); with fewer than three such samples the first of them gives
-    the onset.
+    The final rise is the last run of samples, up to the detection, whose velocity
+    averaged over ``smooth`` neighbouring samples stays at or above ``low * v_detect``
+    (the average keeps a bed's creep and rattle below that level from cutting the run
+    short or starting it early). ``sqrt(v)`` of the raw samples of that run is fitted
+    linearly in ``t`` and extrapolated to ``v = 0`` (at most two fitted spans back);
+    with fewer than three samples in the run, its first sample gives the onset.
     """
+    times = np.asarray(times, dtype=float)
+    angles = np.asarray(angles, dtype=float)
+    speeds = np.asarray(speeds, dtype=float)
     n = len(times)
+    k = max(1, min(int(smooth), n))
+    kernel = np.ones(k)
+    mean_v = np.convolve(speeds, kernel, "same") / np.convolve(np.ones(n), kernel, "same")
     j = n - 1
-    while j > 0 and speeds[j - 1] >= 0.1 * v_detect:
+    while j > 0 and mean_v[j - 1] >= low * v_detect:
         j -= 1
-    t, a, v = times[j:], angles[j:], speeds[j:]
+    t, a, v = times[j:], angles[j:], np.maximum(speeds[j:], 0.0)
     theta_d = float(angles[-1])
     if len(t) < 3:
         return float(a[0]), theta_d

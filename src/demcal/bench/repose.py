@@ -26,8 +26,8 @@ checked against the particle count: a heap of ``particles.count`` particles at 2
 fit on the plate and one at 50 deg must stay below the outlet; the outlet must be at
 least three of the largest particles wide.
 
-Profiles: ``tiny`` 150 particles (outlet 20 mm high at scale 1), ``quick`` 500 (30 mm), ``paper``
-20 000 (100 mm) -- the paper's 500 g
+Profiles: ``tiny`` 150 particles (outlet 20 mm high at scale 1), ``quick`` 1500 (50 mm),
+``paper`` 20 000 (100 mm) -- the paper's 500 g
 sample with the platform scaled 4x in every direction (500 g x 4^3 = 32 kg of particles
 of 1.62 g on average).
 
@@ -167,11 +167,11 @@ class ReposeFunnel(C.BenchExperiment):
         rate = Setting("particles.rate", P(profile, 4000.0, 4000.0, 3000.0), "1/s",
                        "generation rate above the funnel (slowed down while the region is full)",
                        1.0, 1e6)
-        return _repose_settings(profile, (150, 500, 20000), [rate], [
+        return _repose_settings(profile, (150, 1500, 20000), [rate], [
             Setting("geometry.outlet_diameter", 0.025, "m", "funnel outlet diameter at scale 1", 0.001, 1.0),
             Setting("geometry.funnel_diameter", 0.1, "m", "funnel rim diameter at scale 1", 0.002, 2.0),
             Setting("geometry.funnel_height", 0.05, "m", "funnel cone height at scale 1", 0.001, 2.0),
-            Setting("geometry.outlet_height", P(profile, 0.02, 0.03, 0.1), "m",
+            Setting("geometry.outlet_height", P(profile, 0.02, 0.05, 0.1), "m",
                     "outlet height above the plate at scale 1", 0.001, 5.0),
         ])
 

@@ -114,16 +114,13 @@ class OutlineFit:
 
 
 def theil_sen(x, z) -> tuple[float, float]:
-    """Theil--Sen line ``z = intercept + slope x``: the median of the slopes of all
-    pairs of points with different ``x`` (Sen 1968), and the intercept
-    ``median(z) - slope median(x)`` -- the same numbers as
-    ``scipy.stats.theilslopes(z, x)[:2]`` without importing ``scipy.stats``."""
-    x = np.asarray(x, dtype=float).ravel()
-    z = np.asarray(z, dtype=float).ravel()
-    dx = x[:, None] - x
-    pos = dx > 0
-    slope = float(np.median((z[:, None] - z)[pos] / dx[pos]))
-    return slope, float(np.median(z) - slope * np.median(x))
+    """Theil--Sen line ``z = intercept + slope x`` (Sen 1968): ``(slope, intercept)``
+    from :func:`scipy.stats.theilslopes`."""
+    from scipy.stats import theilslopes
+
+    slope, intercept = theilslopes(np.asarray(z, dtype=float).ravel(),
+                                   np.asarray(x, dtype=float).ravel())[:2]
+    return float(slope), float(intercept)
 
 
 def fit_line(x, z, side: str = "left", reject_sigma: float = DEFAULT_REJECT_SIGMA,
