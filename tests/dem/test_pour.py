@@ -17,12 +17,13 @@ from dem_helpers import SOFT, SOFT_WALL
 R = 0.002
 
 
-def pour(backend, n, width, template=R, seed=1, threads=1, model="hertz_mindlin"):
+def pour(backend, n, width, template=R, seed=1, threads=1, model="hertz_mindlin", rolling="type_a"):
     walls = WallSet([Box(lower=(0, 0, 0), upper=(width, width, 4 * width), material=1,
                          name="box")])
     sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.5,
                                                     rolling_friction=0.1),
-                     walls=walls, contact_model=model, threads=threads, backend=backend)
+                     walls=walls, contact_model=model, rolling_model=rolling, threads=threads,
+                     backend=backend)
     ins = insert(BoxRegion((0, 0, 0), (width, width, 4 * width)), n, template=template,
                  sizes=Uniform(0.75, 1.25), seed=seed)
     sim.add_particles(template, ins.positions, orientations=ins.orientations,
@@ -38,8 +39,8 @@ def _inside(sim, width):
     return np.all((p - r > lo - 0.5 * r) & (p + r < hi + 0.5 * r))
 
 
-def _settle(backend, n, width, duration):
-    sim = pour(backend, n, width)
+def _settle(backend, n, width, duration, rolling="type_a"):
+    sim = pour(backend, n, width, rolling=rolling)
     energy = EnergyReporter(500)
     sim.run(duration=duration, reporters=[energy, BlowUpDetector(500)])
     e = np.array(energy.energies)
@@ -57,7 +58,12 @@ def test_pour_small_comes_to_rest(backend):
 
 @pytest.mark.slow
 def test_pour_2000_comes_to_rest(backend):
-    _settle(backend, 2000, 0.06, 1.2)
+    # Rolling resistance of type C (Ai et al. 2011, model C), the one meant for static
+    # packings. With the constant-torque models (type A, cdt) the torque flips with the
+    # sign of a vanishing angular velocity every step (Ai et al. 2011, on their model A), and
+    # a settled bed keeps creeping: surface particles roll off now and then (measured:
+    # kinetic energy bursts to 5e-7 J, single particles at 0.1 m/s, over 3 s).
+    _settle(backend, 2000, 0.06, 1.2, rolling="type_c")
 
 
 def test_checkpoint_restart_is_bit_identical(backend, tmp_path):

@@ -37,16 +37,17 @@ OUT_WIDTH = 6   # pair_out / wall_out columns: force on i (3), torque on the oth
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _at_contact(models, table, mat_i, mat_j, hist, h, dt, delta, nx, ny, nz, xi, yi, zi,
-                ri, bpos, bvel, bomega, bi, mi, iso_i, ox, oy, oz, vx, vy, vz,
-                wjx, wjy, wjz, mj, iso_j, r_eff, m_eff):
-    """Evaluate one overlapping contact of sphere i (body ``bi``) with a partner j whose
-    reference point (centre of mass or wall origin) is ``o``, with velocity ``v`` and
-    angular velocity ``wj``; ``mj`` = 0 for a wall (no rolling inertia on that side).
+def _contact_motion(rolling, delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, bomega, mi,
+                    iso_i, ox, oy, oz, vx, vy, vz, wjx, wjy, wjz, mj, iso_j):
+    """Levers and slip of one overlapping contact of sphere i (body ``bi``) with a partner
+    j whose reference point (centre of mass or wall origin) is ``o``, moving with
+    velocity ``v`` and angular velocity ``wj``; ``mj`` = 0 for a wall (no rolling
+    inertia on that side).
 
-    Returns the force on i (3), the torque on i's body about its centre of mass (3), the
-    moment of the force on j's side about ``o`` (3), and the rolling torques on i and
-    on j (3 + 3; the torque on i above includes i's).
+    Returns the levers ``a_i`` (contact point minus i's centre of mass) and ``a_j``
+    (contact point minus ``o``), the relative velocity of i against j at the contact
+    point, and, for the rolling models that need them, the lever lengths and
+    ``1/I_r`` summed over the bodies (``I = iso + m l^2``).
     """
     a = ri - 0.5 * delta
     cx = xi - a * nx
@@ -67,19 +68,13 @@ def _at_contact(models, table, mat_i, mat_j, hist, h, dt, delta, nx, ny, nz, xi,
     li = 0.0
     lj = 0.0
     inv_ir = 0.0
-    if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
+    if rolling == ROLLING_CONSTANT or rolling == ROLLING_EPSD:
         li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
         inv_ir = 1.0 / (iso_i + mi * li * li)
         if mj > 0.0:
             lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
             inv_ir += 1.0 / (iso_j + mj * lj * lj)
-    fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
-        models, table, mat_i, mat_j, hist, h, delta, nx, ny, nz, vrx, vry, vrz,
-        wix, wiy, wiz, wjx, wjy, wjz, li, lj, r_eff, m_eff, inv_ir, dt)
-    return (fx, fy, fz,
-            aiy * fz - aiz * fy + tix, aiz * fx - aix * fz + tiy, aix * fy - aiy * fx + tiz,
-            -(ajy * fz - ajz * fy), -(ajz * fx - ajx * fz), -(ajx * fy - ajy * fx),
-            tix, tiy, tiz, tjx, tjy, tjz)
+    return aix, aiy, aiz, ajx, ajy, ajz, vrx, vry, vrz, li, lj, inv_ir
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -125,36 +120,17 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             nx = dx * inv_d
             ny = dy * inv_d
             nz = dz * inv_d
-            a = ri - 0.5 * delta
-            cx = xi - a * nx
-            cy = yi - a * ny
-            cz = zi - a * nz
-            aix = cx - bpos[bi, 0]
-            aiy = cy - bpos[bi, 1]
-            aiz = cz - bpos[bi, 2]
-            ajx = cx - bpos[bj, 0]
-            ajy = cy - bpos[bj, 1]
-            ajz = cz - bpos[bj, 2]
-            wix = bomega[bi, 0]
-            wiy = bomega[bi, 1]
-            wiz = bomega[bi, 2]
             wjx = bomega[bj, 0]
             wjy = bomega[bj, 1]
             wjz = bomega[bj, 2]
-            vrx = (bvel[bi, 0] + wiy * aiz - wiz * aiy) - (bvel[bj, 0] + wjy * ajz - wjz * ajy)
-            vry = (bvel[bi, 1] + wiz * aix - wix * aiz) - (bvel[bj, 1] + wjz * ajx - wjx * ajz)
-            vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (bvel[bj, 2] + wjx * ajy - wjy * ajx)
-            li = 0.0
-            lj = 0.0
-            inv_ir = 0.0
-            if models[3] == ROLLING_CONSTANT or models[3] == ROLLING_EPSD:
-                li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
-                lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
-                inv_ir = 1.0 / (biso[bi] + mi * li * li) + 1.0 / (biso[bj] + mj * lj * lj)
+            aix, aiy, aiz, ajx, ajy, ajz, vrx, vry, vrz, li, lj, inv_ir = _contact_motion(
+                models[3], delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, bomega, mi,
+                biso[bi], bpos[bj, 0], bpos[bj, 1], bpos[bj, 2], bvel[bj, 0], bvel[bj, 1],
+                bvel[bj, 2], wjx, wjy, wjz, mj, biso[bj])
             fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
                 models, table, bmat[bi], bmat[bj], hist, p, delta, nx, ny, nz,
-                vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz, li, lj,
-                ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
+                vrx, vry, vrz, bomega[bi, 0], bomega[bi, 1], bomega[bi, 2], wjx, wjy, wjz,
+                li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
             fsx += fx
             fsy += fy
             fsz += fz
@@ -203,25 +179,28 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             whist[q, 7] = 1.0
             wactive[q] = True
             mi = bmass[bi]
-            fx, fy, fz, tix, tiy, tiz, mjx, mjy, mjz, rix, riy, riz, _, _, _ = _at_contact(
-                models, table, bmat[bi], wmat[w], whist, q, dt, delta, nx, ny, nz,
-                xi, yi, zi, ri, bpos, bvel, bomega, bi, mi, biso[bi],
-                worigin[w, 0], worigin[w, 1], worigin[w, 2],
-                wvel[w, 0], wvel[w, 1], wvel[w, 2], womega[w, 0], womega[w, 1],
-                womega[w, 2], 0.0, 0.0, ri, mi)
+            aix, aiy, aiz, ajx, ajy, ajz, vrx, vry, vrz, li, _, inv_ir = _contact_motion(
+                models[3], delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, bomega, mi,
+                biso[bi], worigin[w, 0], worigin[w, 1], worigin[w, 2], wvel[w, 0], wvel[w, 1],
+                wvel[w, 2], womega[w, 0], womega[w, 1], womega[w, 2], 0.0, 0.0)
+            fx, fy, fz, tix, tiy, tiz, _, _, _ = contact(
+                models, table, bmat[bi], wmat[w], whist, q, delta, nx, ny, nz, vrx, vry, vrz,
+                bomega[bi, 0], bomega[bi, 1], bomega[bi, 2], womega[w, 0], womega[w, 1],
+                womega[w, 2], li, 0.0, ri, mi, inv_ir, dt)
             sacc[i, 0] += fx
             sacc[i, 1] += fy
             sacc[i, 2] += fz
-            sacc[i, 3] += tix
-            sacc[i, 4] += tiy
-            sacc[i, 5] += tiz
-            # the wall takes the reaction of i's rolling torque
+            sacc[i, 3] += aiy * fz - aiz * fy + tix
+            sacc[i, 4] += aiz * fx - aix * fz + tiy
+            sacc[i, 5] += aix * fy - aiy * fx + tiz
+            # the wall takes the moment of -F about its origin and the reaction of i's
+            # rolling torque
             wall_out[q, 0] = fx
             wall_out[q, 1] = fy
             wall_out[q, 2] = fz
-            wall_out[q, 3] = mjx - rix
-            wall_out[q, 4] = mjy - riy
-            wall_out[q, 5] = mjz - riz
+            wall_out[q, 3] = -(ajy * fz - ajz * fy) - tix
+            wall_out[q, 4] = -(ajz * fx - ajx * fz) - tiy
+            wall_out[q, 5] = -(ajx * fy - ajy * fx) - tiz
 
 
 @njit(cache=True, error_model="numpy")

@@ -275,6 +275,7 @@ def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
     """Simulated heap (verification run artifact) next to the measured photo (Fig. 7)."""
     c = cal.campaign
     cells = []
+    heaps = False
     for result in cal.conditions:
         simulated = None
         for record in result.verification:
@@ -291,6 +292,7 @@ def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
         measured = _measured_photo(result.condition, c.path.parent)
         if simulated is None and measured is None:
             continue
+        heaps = heaps or (simulated is not None and simulated[0].startswith("heap"))
         sim_html = _img(simulated[1], f"simulated {result.condition.name}") if simulated else "<p>no image</p>"
         mea_html = (_img(measured, f"measured {result.condition.name}") if measured and measured.is_file()
                     else "<p class=\"small\">no lab photo in the campaign</p>")
@@ -298,8 +300,14 @@ def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
             f"<tr><td class=\"t\">{html.escape(result.condition.name)}</td>"
             f"<td class=\"t\" style=\"width:45%\">{sim_html}</td><td class=\"t\" style=\"width:45%\">{mea_html}</td></tr>")
     if cells:
-        report.section("Heap images: simulated and measured", 3)
-        report.raw("<table><caption>Simulated (verification run) and measured heap, paper Fig. 7</caption>"
+        if heaps:
+            title, caption = ("Heap images: simulated and measured",
+                              "Simulated (verification run) and measured heap, paper Fig. 7")
+        else:
+            title, caption = ("Verification runs: what was measured",
+                              "Simulated verification run (its measurement picture) and the lab photo")
+        report.section(title, 3)
+        report.raw(f"<table><caption>{caption}</caption>"
                    "<thead><tr><th class=\"t\">condition</th><th class=\"t\">simulated</th>"
                    "<th class=\"t\">measured</th></tr></thead><tbody>" + "".join(cells) + "</tbody></table>")
 
