@@ -281,12 +281,7 @@ def make_simulation(s: Mapping[str, Any], materials, interactions, walls, dt: fl
                     gravity=(0.0, 0.0, -G), domain=None, skin=None):
     """A Simulation with the settings' contact and rolling models and step ``dt`` [s]."""
     from demcal.dem import Simulation
-    if walls is not None and walls.moving:
-        # work-around: the engine reads self.time while packing moving walls in __init__
-        class _Simulation(Simulation):
-            time = 0.0
 
-        Simulation = _Simulation  # noqa: N806
     return Simulation(materials, interactions, walls=walls, gravity=gravity, dt=dt,
                       contact_model=s["contact.model"], rolling_model=s["rolling.model"],
                       domain=domain, skin=skin)

@@ -135,7 +135,8 @@ class Simulation:
         Box [m]; particles are refused if they do not fit, and particles leaving it are
         removed (counted in ``sim.escaped``).
     threads : int, optional
-        Worker threads for the force and integration loops (default: all cores). The
+        Worker threads for the force and integration loops (default: numba's thread count,
+        all cores unless NUMBA_NUM_THREADS or numba.set_num_threads says fewer). The
         compiled kernels release the GIL and each writes disjoint slots, so results are
         bitwise identical for any thread count.
     backend : {"cpu"}
@@ -182,7 +183,11 @@ class Simulation:
                 raise ConfigError(f"domain must be (lo, hi) with hi > lo, got {domain!r}.")
             self.domain = (lo, hi)
         if threads is None:
-            threads = os.cpu_count() or 1
+            # numba's thread count: the cores, or what NUMBA_NUM_THREADS or a campaign
+            # worker (numba.set_num_threads) allows this process
+            import numba
+
+            threads = numba.get_num_threads()
         if not (isinstance(threads, int) and not isinstance(threads, bool) and threads >= 1):
             raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
         self.threads = threads
