@@ -1,8 +1,9 @@
 """Angle of repose tests: reproducibility and physics sanity (issue 4, acceptance 2 and 3).
 
 The repose angle must rise with the inter-particle static friction and with the rolling
-friction. The full grid (``slow``) averages seeds at the tiny profile; the fast variant
-compares the two corners of the grid with one seed.
+friction: the grid averages three seeds at the tiny profile, and the corners of the grid
+are compared with one seed. The seed-to-seed spread of the quick profile (six runs of
+about 20 s) is a ``slow`` bench run.
 """
 
 import numpy as np
@@ -34,7 +35,6 @@ def test_corners_of_the_friction_grid():
     assert high > low + 3.0
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("key, low, high", [
     ("particle.static_friction", 0.15, 0.6),
     ("particle.rolling_friction", 0.02, 0.4),
@@ -46,8 +46,18 @@ def test_repose_angle_rises_with_friction(key, low, high):
     assert a_high > a_low + 2.0
 
 
-@pytest.mark.slow
 def test_lifted_cylinder_builds_a_heap(tmp_path):
     r = get_experiment("repose-cylinder").run({}, seed=0, profile="tiny", out_dir=tmp_path)
     assert 10.0 < r.responses["repose_angle_deg"] < 60.0
     assert (tmp_path / "heap.png").exists()
+
+
+@pytest.mark.slow
+def test_quick_profile_seed_to_seed_spread():
+    # measured 22 Nov 2026: mean 35.30, sd 2.45 deg over seeds 1-6 (docs/validation.md);
+    # the issue's aim is 1.5 deg, this guards against a regression well beyond that
+    angles = [angle(seed=s, profile="quick") for s in range(1, 7)]
+    print(f"quick repose angle over seeds 1-6: mean {np.mean(angles):.2f}, "
+          f"sd {np.std(angles, ddof=1):.2f} deg")
+    assert np.std(angles, ddof=1) < 3.5
+    assert 25.0 < np.mean(angles) < 45.0

@@ -6,14 +6,11 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-import pytest
-
 from conftest import CAMPAIGN
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "residual-film-soil"
 
 
-@pytest.mark.slow
 def test_demo_runs_calibrates_and_reports(tmp_path, monkeypatch, capsys):
     import demcal.campaign.demo as demo
     from demcal.cli import main

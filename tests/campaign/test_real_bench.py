@@ -1,4 +1,4 @@
-"""A real virtual experiment through the campaign machinery (slow: minutes).
+"""A real virtual experiment through the campaign machinery (about 10 s).
 
 Issue 5, acceptance 2 with the built-in engine: a small repose-funnel campaign at the
 tiny profile runs through the local pool and through a Dask ``LocalCluster`` and gives
@@ -31,7 +31,6 @@ targets = { repose_angle_deg = { mean = 31.07, sd = 2.1 } }
 """
 
 
-@pytest.mark.slow
 def test_real_tiny_campaign_local_pool_equals_dask(tmp_path):
     pytest.importorskip("distributed")
     from demcal.bench.registry import names

@@ -56,7 +56,6 @@ def test_pour_small_comes_to_rest(backend):
     _settle(backend, 120, 0.02, 0.5)
 
 
-@pytest.mark.slow
 def test_pour_2000_comes_to_rest(backend):
     # Rolling resistance of type C (Ai et al. 2011, model C), the one meant for static
     # packings. With the constant-torque models (type A, cdt) the torque flips with the
