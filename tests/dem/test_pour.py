@@ -86,3 +86,15 @@ def test_same_result_for_any_thread_count(backend):
         sim.run(steps=1500)
         runs.append(sim.state.positions.copy())
     assert np.array_equal(runs[0], runs[1])
+
+
+def test_default_threads_follow_numba(backend):
+    # a campaign worker caps numba's threads; the engine's own thread pool follows
+    import numba
+
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        assert pour(backend, 10, 0.02, threads=None).threads == 1
+    finally:
+        numba.set_num_threads(before)

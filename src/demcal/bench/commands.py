@@ -39,7 +39,7 @@ def register(subparsers) -> None:
     parser.add_argument("name", nargs="?", metavar="NAME",
                         help=f"the test: {', '.join(_TESTS)}")
     parser.add_argument("--profile", default="quick",
-                        help="tiny (seconds), quick (default; about a minute) or paper (the paper's scale)")
+                        help="tiny (seconds), quick (default; 10-40 s) or paper (the paper's scale)")
     parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                         help="override a setting (repeatable); see `demcal bench NAME --help`")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
