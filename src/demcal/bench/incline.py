@@ -27,9 +27,14 @@ The simulation
   plate. While tilting, with ``incline.container = "follow"`` (default) the container
   moves along the slope with the material's mean velocity plus a yielding term
   ``v_ref F_x / W`` (``F_x`` the along-slope force the particles put on it, ``W`` their
-  weight, ``v_ref`` = 1 m/s), updated every 5 ms: it follows the material and keeps it
-  together laterally, but gives way to any along-slope push instead of holding the
-  material up (a container fixed to the plate would hold it by its downhill wall). With
+  weight, ``v_ref`` = ``incline.container_yield``, 0.05 m/s), updated every 5 ms: it
+  follows the material and keeps it together laterally, but gives way to any along-slope
+  push instead of holding the material up (a container fixed to the plate would hold it
+  by its downhill wall). The update is explicit, so ``v_ref`` must stay below about
+  ``2 W / (k_bed * 5 ms)`` with ``k_bed`` the bed's stiffness against the wall: the first
+  version's 1 m/s made the container oscillate against the bed (5 ms samples of the mean
+  slope velocity jumping between 1 and 20 mm/s; a 1,500-particle bed "slid" at once),
+  0.1 and 0.02 m/s both gave smooth signals, 0.02 about 1 deg later onsets. With
   ``"remove"`` the container is taken away once the bed has settled.
 * **Onset of sliding.** Every 5 ms the mass-weighted mean velocity of the material along
   the slope ``v`` is recorded. Sliding is detected when ``v`` exceeds
@@ -67,8 +72,6 @@ from demcal.errors import ConfigError, SimulationError
 
 #: Controller and sampling interval [s].
 CHECK = 0.005
-#: Container yield speed per unit along-slope force / weight [m/s].
-V_REF = 1.0
 #: Onset fit: the final rise starts where the mean slope velocity, averaged over
 #: ONSET_SMOOTH samples (25 ms), last rose to ONSET_LOW x the detection speed.
 ONSET_LOW = 0.25
@@ -104,6 +107,9 @@ class Incline(C.BenchExperiment):
                     "angle at which tilting starts (low, so the bed is at rest before it can slide)",
                     0.0, 80.0),
             Setting("incline.max_angle", 60.0, "deg", "give up above this angle", 1.0, 89.0),
+            Setting("incline.container_yield", 0.05, "m/s",
+                    "speed at which the following container gives way per unit of the "
+                    "along-slope push on it over the material's weight", 0.0, 1.0),
             Setting("incline.slide_speed", 0.02, "m/s",
                     "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
             Setting("incline.arm_length", 0.3, "m",
@@ -197,6 +203,7 @@ class Incline(C.BenchExperiment):
         mass = sim.state.masses.copy()
         weight = float(mass.sum()) * C.G
         follow = container is not None and s["incline.container"] == "follow"
+        v_ref = float(s["incline.container_yield"])
         steps = max(1, int(round(CHECK / sim.dt)))
         times, angles, speeds = [], [], []
         v_detect = float(s["incline.slide_speed"])
@@ -220,7 +227,7 @@ class Incline(C.BenchExperiment):
             if follow:
                 fx = float(sim.wall_forces()["container"][0][0])
                 xc = motion.offset[0] + motion.velocity[0] * steps * sim.dt
-                vc = float(np.clip(v + V_REF * fx / weight, -0.5, 0.5))
+                vc = float(np.clip(v + v_ref * fx / weight, -0.5, 0.5))
                 motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
             if sim.time - last[0] >= 0.5:
                 last[0] = sim.time
