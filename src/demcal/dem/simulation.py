@@ -685,7 +685,8 @@ class Simulation:
                 continue
             per_step = self._wall_speed() * dt
             if self._threaded(self.n_particles):
-                k, rebuild = 1, False
+                # threads split each kernel, so the host steps one at a time
+                k = 1
                 disp = self._drift()
                 self.time += dt
                 self._wall_travel += per_step
