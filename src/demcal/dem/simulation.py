@@ -671,6 +671,7 @@ class Simulation:
         dt = self.dt
         half_skin = 0.5 * self.skin
         done = 0
+        per_step = None  # wall travel per step [m]; the bound moves with the spheres
         while done < nsteps:
             if self._walls_need_update():
                 # a moving wall: one step at a time, the walls placed before each force
@@ -682,8 +683,10 @@ class Simulation:
                 if disp + self._wall_travel > half_skin or self._needs_rebuild:
                     self._rebuild()
                 self._compute_forces(True)
+                per_step = None
                 continue
-            per_step = self._wall_speed() * dt
+            if per_step is None:
+                per_step = self._wall_speed() * dt
             if self._threaded(self.n_particles):
                 # threads split each kernel, so the host steps one at a time
                 k = 1
@@ -701,6 +704,7 @@ class Simulation:
             if rebuild or self._needs_rebuild:
                 self._rebuild()
                 self._compute_forces(True)
+                per_step = None
 
     def _run_compiled(self, nsteps, half_skin, per_step):
         """Up to ``nsteps`` steps in one compiled call (:mod:`demcal.dem.stepper`)."""

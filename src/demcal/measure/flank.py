@@ -113,16 +113,6 @@ class OutlineFit:
         return 0.5 * (self.left.r2 + self.right.r2)
 
 
-def theil_sen(x, z) -> tuple[float, float]:
-    """Theil--Sen line ``z = intercept + slope x`` (Sen 1968): ``(slope, intercept)``
-    from :func:`scipy.stats.theilslopes`."""
-    from scipy.stats import theilslopes
-
-    slope, intercept = theilslopes(np.asarray(z, dtype=float).ravel(),
-                                   np.asarray(x, dtype=float).ravel())[:2]
-    return float(slope), float(intercept)
-
-
 def fit_line(x, z, side: str = "left", reject_sigma: float = DEFAULT_REJECT_SIGMA,
              max_iter: int = 30) -> FlankFit:
     """Fit ``z = a + b x`` by least squares with iterative rejection of outliers.
@@ -155,7 +145,9 @@ def fit_line(x, z, side: str = "left", reject_sigma: float = DEFAULT_REJECT_SIGM
         )
     # Robust start: Theil--Sen on an evenly spaced subset.
     step = max(1, x.size // _THEIL_SEN_POINTS)
-    slope, intercept = theil_sen(x[::step], z[::step])
+    from scipy.stats import theilslopes  # Sen 1968; imported here to keep start-up light
+
+    slope, intercept = (float(v) for v in theilslopes(z[::step], x[::step])[:2])
     inlier = np.ones(x.size, dtype=bool)
     floor = 1e-9 * max(np.ptp(z), np.ptp(x), 1e-300)
     for _ in range(max_iter):
