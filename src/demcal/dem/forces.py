@@ -1,18 +1,21 @@
 """Contact drivers: loop over the neighbour list and the wall candidates.
 
 Only these loops iterate over contacts (over a range [lo, hi) of spheres, so the host can
-split the work between threads); each contact is evaluated by ``contact.kernel.contact``
-through :func:`_at_contact`, which both drivers share.
+split the work between threads); each contact is evaluated by ``contact.kernel.contact``,
+which both drivers call with the same levers and slip (:func:`_relative_motion`).
 
-Where the results go (each slot is written by exactly one thread, and every sum is taken
-in a fixed order, so results are bitwise identical for any number of threads):
+Where the results go (every sum is taken in a fixed order, so results are bitwise
+identical for any number of threads):
 
 * ``sacc[i]`` (per sphere i): the force on i and the torque on body(i) about its centre
-  of mass, summed over row i of the pair list (in row order) and then over i's wall
-  candidates. :func:`pair_forces` starts the sum, :func:`wall_forces` adds to it.
+  of mass: first the reactions of the slots where i is the j side (in row order), then
+  row i's own contacts (summed in row order, added as one number), then i's wall
+  contacts. With one thread :func:`pair_forces` scatters the reactions as it goes; with
+  several, each row stores them in ``pair_out`` and :func:`reverse_sums` adds them per
+  sphere through the reverse index, which gives the same numbers.
+  :func:`wall_forces` adds the walls; ``integrator.gather_kick`` sums per body.
 * ``pair_out[p]`` for an active pair slot p = (i, j): the force on i (j gets the
-  opposite) and the torque on body(j); ``integrator.gather_kick`` adds those to body(j)
-  through the reverse index.
+  opposite) and, on the split path, the torque on body(j).
 * ``wall_out[q]`` for an active wall slot: the force on the body and the torque on the
   wall about its origin (for :func:`wall_totals`).
 
@@ -37,34 +40,19 @@ OUT_WIDTH = 6   # pair_out / wall_out columns: force on i (3), torque on the oth
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _contact_motion(rolling, delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, bomega, mi,
-                    iso_i, ox, oy, oz, vx, vy, vz, wjx, wjy, wjz, mj, iso_j):
-    """Levers and slip of one overlapping contact of sphere i (body ``bi``) with a partner
-    j whose reference point (centre of mass or wall origin) is ``o``, moving with
-    velocity ``v`` and angular velocity ``wj``; ``mj`` = 0 for a wall (no rolling
-    inertia on that side).
+def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, wiy, wiz,
+                     mi, iso_i, vjx, vjy, vjz, wjx, wjy, wjz, mj, iso_j):
+    """Slip of one contact and, for the rolling models that need them, its lever lengths.
 
-    Returns the levers ``a_i`` (contact point minus i's centre of mass) and ``a_j``
-    (contact point minus ``o``), the relative velocity of i against j at the contact
-    point, and, for the rolling models that need them, the lever lengths and
-    ``1/I_r`` summed over the bodies (``I = iso + m l^2``).
+    ``a_i`` and ``a_j`` are the levers from i's centre of mass and from j's reference
+    point (centre of mass, or a wall's origin) to the contact point; ``v``, ``w`` the
+    velocities and angular velocities of the two sides; ``mj`` = 0 for a wall (no rolling
+    inertia on that side). Returns the relative velocity of i against j at the contact
+    point, the lever lengths and ``1/I_r`` summed over the bodies (``I = iso + m l^2``).
     """
-    a = ri - 0.5 * delta
-    cx = xi - a * nx
-    cy = yi - a * ny
-    cz = zi - a * nz
-    aix = cx - bpos[bi, 0]
-    aiy = cy - bpos[bi, 1]
-    aiz = cz - bpos[bi, 2]
-    ajx = cx - ox
-    ajy = cy - oy
-    ajz = cz - oz
-    wix = bomega[bi, 0]
-    wiy = bomega[bi, 1]
-    wiz = bomega[bi, 2]
-    vrx = (bvel[bi, 0] + wiy * aiz - wiz * aiy) - (vx + wjy * ajz - wjz * ajy)
-    vry = (bvel[bi, 1] + wiz * aix - wix * aiz) - (vy + wjz * ajx - wjx * ajz)
-    vrz = (bvel[bi, 2] + wix * aiy - wiy * aix) - (vz + wjx * ajy - wjy * ajx)
+    vrx = (vix + wiy * aiz - wiz * aiy) - (vjx + wjy * ajz - wjz * ajy)
+    vry = (viy + wiz * aix - wix * aiz) - (vjy + wjz * ajx - wjx * ajz)
+    vrz = (viz + wix * aiy - wiy * aix) - (vjz + wjx * ajy - wjy * ajx)
     li = 0.0
     lj = 0.0
     inv_ir = 0.0
@@ -74,21 +62,48 @@ def _contact_motion(rolling, delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, 
         if mj > 0.0:
             lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
             inv_ir += 1.0 / (iso_j + mj * lj * lj)
-    return aix, aiy, aiz, ajx, ajy, ajz, vrx, vry, vrz, li, lj, inv_ir
+    return vrx, vry, vrz, li, lj, inv_ir
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                biso, bmat, row_start, nbr, hist, pair_out, active, sacc, lo, hi):
-    """Pair contacts of rows [lo, hi); starts ``sacc`` of those spheres.
+                biso, bmat, row_start, nbr, hist, pair_out, active, sacc, scatter, lo, hi):
+    """Pair contacts of rows [lo, hi).
 
-    ``biso[b]`` is the mean principal moment of inertia of body b (rolling inertia)."""
+    ``scatter`` false (rows split between threads): ``sacc[i]`` is set to row i's own
+    sums and each active slot stores the force on i and the torque on body(j) in
+    ``pair_out``, for :func:`reverse_sums`. ``scatter`` true (one thread, all rows):
+    the reaction goes straight to ``sacc[j]`` (zeroed here first), only the force is
+    stored, and the sums come out bitwise the same as the split path's.
+    ``biso[b]`` is the mean principal moment of inertia of body b (rolling inertia).
+    """
+    normal = models[0]
+    damping = models[1]
+    tangential = models[2]
+    rolling = models[3]
+    if scatter:
+        for i in range(lo, hi):
+            for k in range(ACC_WIDTH):
+                sacc[i, k] = 0.0
     for i in range(lo, hi):
         bi = sbody[i]
         ri = srad[i]
         xi = spos[i, 0]
         yi = spos[i, 1]
         zi = spos[i, 2]
+        # sphere centre relative to its body's centre of mass (zero for a sphere)
+        oix = xi - bpos[bi, 0]
+        oiy = yi - bpos[bi, 1]
+        oiz = zi - bpos[bi, 2]
+        vix = bvel[bi, 0]
+        viy = bvel[bi, 1]
+        viz = bvel[bi, 2]
+        wix = bomega[bi, 0]
+        wiy = bomega[bi, 1]
+        wiz = bomega[bi, 2]
+        mi = bmass[bi]
+        iso_i = biso[bi]
+        mati = bmat[bi]
         fsx = 0.0
         fsy = 0.0
         fsz = 0.0
@@ -98,9 +113,12 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
         for p in range(row_start[i], row_start[i + 1]):
             j = nbr[p]
             rj = srad[j]
-            dx = xi - spos[j, 0]
-            dy = yi - spos[j, 1]
-            dz = zi - spos[j, 2]
+            xj = spos[j, 0]
+            yj = spos[j, 1]
+            zj = spos[j, 2]
+            dx = xi - xj
+            dy = yi - yj
+            dz = zi - zj
             rs = ri + rj
             d2 = dx * dx + dy * dy + dz * dz
             if d2 >= rs * rs:
@@ -109,28 +127,35 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         hist[p, k] = 0.0
                     active[p] = False
                 continue
-            hist[p, 7] = 1.0
-            active[p] = True
             bj = sbody[j]
+            mj = bmass[bj]
             d = math.sqrt(d2)
             inv_d = 1.0 / d
-            mi = bmass[bi]
-            mj = bmass[bj]
             delta = rs - d
             nx = dx * inv_d
             ny = dy * inv_d
             nz = dz * inv_d
+            # levers to the middle of the overlap: x_c = x_i - a n = x_j + b n
+            a = ri - 0.5 * delta
+            b = rj - 0.5 * delta
+            aix = oix - a * nx
+            aiy = oiy - a * ny
+            aiz = oiz - a * nz
+            ajx = (xj - bpos[bj, 0]) + b * nx
+            ajy = (yj - bpos[bj, 1]) + b * ny
+            ajz = (zj - bpos[bj, 2]) + b * nz
             wjx = bomega[bj, 0]
             wjy = bomega[bj, 1]
             wjz = bomega[bj, 2]
-            aix, aiy, aiz, ajx, ajy, ajz, vrx, vry, vrz, li, lj, inv_ir = _contact_motion(
-                models[3], delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, bomega, mi,
-                biso[bi], bpos[bj, 0], bpos[bj, 1], bpos[bj, 2], bvel[bj, 0], bvel[bj, 1],
-                bvel[bj, 2], wjx, wjy, wjz, mj, biso[bj])
+            vrx, vry, vrz, li, lj, inv_ir = _relative_motion(
+                rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, wiy, wiz, mi,
+                iso_i, bvel[bj, 0], bvel[bj, 1], bvel[bj, 2], wjx, wjy, wjz, mj, biso[bj])
             fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
-                models, table, bmat[bi], bmat[bj], hist, p, delta, nx, ny, nz,
-                vrx, vry, vrz, bomega[bi, 0], bomega[bi, 1], bomega[bi, 2], wjx, wjy, wjz,
+                normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
+                nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
                 li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
+            hist[p, 7] = 1.0
+            active[p] = True
             fsx += fx
             fsy += fy
             fsz += fz
@@ -140,15 +165,63 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             pair_out[p, 0] = fx
             pair_out[p, 1] = fy
             pair_out[p, 2] = fz
-            pair_out[p, 3] = -(ajy * fz - ajz * fy) + tjx
-            pair_out[p, 4] = -(ajz * fx - ajx * fz) + tjy
-            pair_out[p, 5] = -(ajx * fy - ajy * fx) + tjz
-        sacc[i, 0] = fsx
-        sacc[i, 1] = fsy
-        sacc[i, 2] = fsz
-        sacc[i, 3] = tsx
-        sacc[i, 4] = tsy
-        sacc[i, 5] = tsz
+            tx = -(ajy * fz - ajz * fy) + tjx
+            ty = -(ajz * fx - ajx * fz) + tjy
+            tz = -(ajx * fy - ajy * fx) + tjz
+            if scatter:
+                sacc[j, 0] -= fx
+                sacc[j, 1] -= fy
+                sacc[j, 2] -= fz
+                sacc[j, 3] += tx
+                sacc[j, 4] += ty
+                sacc[j, 5] += tz
+            else:
+                pair_out[p, 3] = tx
+                pair_out[p, 4] = ty
+                pair_out[p, 5] = tz
+        if scatter:
+            sacc[i, 0] += fsx
+            sacc[i, 1] += fsy
+            sacc[i, 2] += fsz
+            sacc[i, 3] += tsx
+            sacc[i, 4] += tsy
+            sacc[i, 5] += tsz
+        else:
+            sacc[i, 0] = fsx
+            sacc[i, 1] = fsy
+            sacc[i, 2] = fsz
+            sacc[i, 3] = tsx
+            sacc[i, 4] = tsy
+            sacc[i, 5] = tsz
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def reverse_sums(sacc, pair_out, active, rev_start, rev_pair, lo, hi):
+    """After a split :func:`pair_forces`: add to each sphere j of [lo, hi) the reactions
+    of the slots where it is the j side, in row order, in front of its own row sum
+    (the order in which the scatter path adds them)."""
+    for j in range(lo, hi):
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        for q in range(rev_start[j], rev_start[j + 1]):
+            p = rev_pair[q]
+            if active[p]:
+                fx -= pair_out[p, 0]
+                fy -= pair_out[p, 1]
+                fz -= pair_out[p, 2]
+                tx += pair_out[p, 3]
+                ty += pair_out[p, 4]
+                tz += pair_out[p, 5]
+        sacc[j, 0] = fx + sacc[j, 0]
+        sacc[j, 1] = fy + sacc[j, 1]
+        sacc[j, 2] = fz + sacc[j, 2]
+        sacc[j, 3] = tx + sacc[j, 3]
+        sacc[j, 4] = ty + sacc[j, 4]
+        sacc[j, 5] = tz + sacc[j, 5]
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -156,6 +229,10 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, wall_start, wid, whist, wall_out, wactive, sacc,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):
     """Wall contacts of spheres [lo, hi); adds to ``sacc`` (after :func:`pair_forces`)."""
+    normal = models[0]
+    damping = models[1]
+    tangential = models[2]
+    rolling = models[3]
     for i in range(lo, hi):
         q0 = wall_start[i]
         q1 = wall_start[i + 1]
@@ -166,6 +243,10 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
         xi = spos[i, 0]
         yi = spos[i, 1]
         zi = spos[i, 2]
+        oix = xi - bpos[bi, 0]
+        oiy = yi - bpos[bi, 1]
+        oiz = zi - bpos[bi, 2]
+        mi = bmass[bi]
         for q in range(q0, q1):
             w = wid[q]
             d, nx, ny, nz = wall_distance(wkind[w], wparams[w], xi, yi, zi)
@@ -176,17 +257,26 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         whist[q, k] = 0.0
                     wactive[q] = False
                 continue
+            a = ri - 0.5 * delta
+            aix = oix - a * nx
+            aiy = oiy - a * ny
+            aiz = oiz - a * nz
+            ajx = (xi - worigin[w, 0]) - a * nx
+            ajy = (yi - worigin[w, 1]) - a * ny
+            ajz = (zi - worigin[w, 2]) - a * nz
+            wix = bomega[bi, 0]
+            wiy = bomega[bi, 1]
+            wiz = bomega[bi, 2]
+            vrx, vry, vrz, li, _, inv_ir = _relative_motion(
+                rolling, aix, aiy, aiz, ajx, ajy, ajz, bvel[bi, 0], bvel[bi, 1], bvel[bi, 2],
+                wix, wiy, wiz, mi, biso[bi], wvel[w, 0], wvel[w, 1], wvel[w, 2],
+                womega[w, 0], womega[w, 1], womega[w, 2], 0.0, 0.0)
+            fx, fy, fz, tix, tiy, tiz, _, _, _ = contact(
+                normal, damping, tangential, rolling, table, bmat[bi], wmat[w], whist, q,
+                delta, nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, womega[w, 0],
+                womega[w, 1], womega[w, 2], li, 0.0, ri, mi, inv_ir, dt)
             whist[q, 7] = 1.0
             wactive[q] = True
-            mi = bmass[bi]
-            aix, aiy, aiz, ajx, ajy, ajz, vrx, vry, vrz, li, _, inv_ir = _contact_motion(
-                models[3], delta, nx, ny, nz, xi, yi, zi, ri, bi, bpos, bvel, bomega, mi,
-                biso[bi], worigin[w, 0], worigin[w, 1], worigin[w, 2], wvel[w, 0], wvel[w, 1],
-                wvel[w, 2], womega[w, 0], womega[w, 1], womega[w, 2], 0.0, 0.0)
-            fx, fy, fz, tix, tiy, tiz, _, _, _ = contact(
-                models, table, bmat[bi], wmat[w], whist, q, delta, nx, ny, nz, vrx, vry, vrz,
-                bomega[bi, 0], bomega[bi, 1], bomega[bi, 2], womega[w, 0], womega[w, 1],
-                womega[w, 2], li, 0.0, ri, mi, inv_ir, dt)
             sacc[i, 0] += fx
             sacc[i, 1] += fy
             sacc[i, 2] += fz

@@ -190,10 +190,10 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                binertia, bfixed, bstart, sacc, pair_out, active, rev_start, rev_pair,
-                kick, lo, hi):
-    """Sum contact forces and torques per body (each sphere's own sums ``sacc``, then its
-    reverse pair slots, in a fixed order), add gravity, half kick (if ``kick``)."""
+                binertia, bfixed, bstart, sacc, kick, lo, hi):
+    """Sum the contact forces and torques of each body's spheres (``sacc``, complete
+    after ``forces.pair_forces``, ``forces.reverse_sums`` and ``forces.wall_forces``) in
+    sphere order, add gravity, half kick (if ``kick``)."""
     h = 0.5 * dt
     for b in range(lo, hi):
         m = bmass[b]
@@ -210,15 +210,6 @@ def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmas
             tx += sacc[s, 3]
             ty += sacc[s, 4]
             tz += sacc[s, 5]
-            for q in range(rev_start[s], rev_start[s + 1]):
-                p = rev_pair[q]
-                if active[p]:
-                    fx -= pair_out[p, 0]
-                    fy -= pair_out[p, 1]
-                    fz -= pair_out[p, 2]
-                    tx += pair_out[p, 3]
-                    ty += pair_out[p, 4]
-                    tz += pair_out[p, 5]
         bforce[b, 0] = fx
         bforce[b, 1] = fy
         bforce[b, 2] = fz

@@ -617,10 +617,14 @@ class Simulation:
         dt = self.dt
         ns = self.n_spheres
         if ns:
+            split = self._threaded(ns)
             self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"],
                       s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
                       b["iso"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
-                      p["act"], s["acc"])
+                      p["act"], s["acc"], not split)
+            if split:
+                self._par(_forces.reverse_sums, ns, s["acc"], p["out"], p["act"],
+                          p["rev_start"], p["rev"])
             self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"],
                       s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
                       b["iso"], b["mat"], q["start"], q["wid"], q["hist"], q["out"],
@@ -628,8 +632,7 @@ class Simulation:
                       w["omega"], w["origin"], w["material"])
         self._par(_integ.gather_kick, self.n_particles, dt, self.gravity, b["vel"],
                   b["quat"], b["angmom"], b["omega"], b["force"], b["torque"], b["mass"],
-                  b["inertia"], b["fixed"], b["start"], s["acc"], p["out"], p["act"],
-                  p["rev_start"], p["rev"], kick)
+                  b["inertia"], b["fixed"], b["start"], s["acc"], kick)
         self._forces_valid = True
 
     def _prepare(self):
@@ -715,7 +718,7 @@ class Simulation:
             b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"], b["force"], b["torque"],
             b["mass"], b["inertia"], b["iso"], b["mat"], b["fixed"], b["start"],
             s["body"], s["offset"], s["radius"], s["pos"], s["ref"], s["dsq"], s["acc"],
-            p["start"], p["nbr"], p["hist"], p["out"], p["act"], p["rev_start"], p["rev"],
+            p["start"], p["nbr"], p["hist"], p["out"], p["act"],
             q["start"], q["wid"], q["hist"], q["out"], q["act"],
             w["kind"], w["params"], w["velocity"], w["omega"], w["origin"], w["material"])
 

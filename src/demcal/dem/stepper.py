@@ -25,7 +25,7 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
               bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia, biso,
               bmat, bfixed, bstart,
               sbody, soffset, srad, spos, sref, sdsq, sacc,
-              p_start, p_nbr, p_hist, p_out, p_act, p_rev_start, p_rev,
+              p_start, p_nbr, p_hist, p_out, p_act,
               q_start, q_wid, q_hist, q_out, q_act,
               wkind, wparams, wvel, womega, worigin, wmat):
     """Advance up to ``nsteps`` steps; returns ``(steps, rebuild, time, travel)``.
@@ -43,11 +43,10 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
         if math.sqrt(mx) + travel > half_skin:
             return k + 1, True, time, travel
         pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
-                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, 0, ns)
+                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, True, 0, ns)
         wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
                     bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind, wparams, wvel,
                     womega, worigin, wmat, 0, ns)
         gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                    binertia, bfixed, bstart, sacc, p_out, p_act, p_rev_start, p_rev, True,
-                    0, nb)
+                    binertia, bfixed, bstart, sacc, True, 0, nb)
     return nsteps, False, time, travel

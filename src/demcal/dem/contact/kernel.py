@@ -14,7 +14,7 @@ from demcal.particles.materials import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR,
 
 from .damping import normal_damping
 from .normal import loading_stiffness, normal_force
-from .registry import NORMAL_HERTZ, NORMAL_HYSTERETIC, TANGENTIAL_MINDLIN
+from .registry import FASTMATH, NORMAL_HERTZ, NORMAL_HYSTERETIC, TANGENTIAL_MINDLIN
 from .rolling import rolling_torque
 from .tangential import tangential_force, tangential_stiffness
 
@@ -22,24 +22,26 @@ HIST_WIDTH = 8
 H_DELTA0 = 3
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
 def reset_history(hist, h):
     for k in range(HIST_WIDTH):
         hist[h, k] = 0.0
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
-def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
-            vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
+            nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
             lever_i, lever_j, r_eff, m_eff, inv_ir, dt):
     """Force on i and rolling torques on i and j for one overlapping contact.
 
     Parameters
     ----------
-    models : int64[4]
-        Sub-model ids (normal, damping, tangential, rolling), see ``registry``.
+    normal, damping, tangential, rolling : int
+        Sub-model ids of the four slots, see ``registry``.
     table : float64[nmat, nmat, N_PAIR_PARAMS]
-        Material-pair constants (``demcal.particles.materials.pair_table`` columns).
+        Material-pair constants (``demcal.particles.materials.pair_table`` columns);
+        ``mi``, ``mj`` are the materials of the two sides.
+    hist, h : history array and this contact's row (see the module docstring).
     delta : float
         Overlap [m] > 0. ``n`` is the unit normal pointing from j to i.
     vr : relative velocity of i with respect to j at the contact point [m/s].
@@ -52,36 +54,44 @@ def contact(models, table, mi, mj, hist, h, delta, nx, ny, nz,
     (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz)
         Contact force on i [N] (j gets the opposite) and the rolling torques [N m].
     """
+    # every constant is read before the history is written (the compiler cannot tell
+    # the arrays apart, so a read after a write would be repeated for every contact)
     e = table[mi, mj, P_E]
     beta = table[mi, mj, P_BETA]
     ymin = table[mi, mj, P_YMIN]
+    estar = table[mi, mj, P_ESTAR]
+    gstar = table[mi, mj, P_GSTAR]
+    zeta = table[mi, mj, P_ZETA]
+    xi = table[mi, mj, P_XI]
+    sq_st_sn = table[mi, mj, P_SQ_ST_SN]
+    mu_s = table[mi, mj, P_MU_S]
+    mu_r = table[mi, mj, P_MU_R]
+    eta_r = table[mi, mj, P_ETA_R]
+    delta0 = hist[h, H_DELTA0] if normal == NORMAL_HYSTERETIC else 0.0
     vn = vrx * nx + vry * ny + vrz * nz
     # sqrt(R* delta) is shared by the Hertz spring and the Mindlin tangential spring
     sq = 0.0
-    if models[0] == NORMAL_HERTZ or models[2] == TANGENTIAL_MINDLIN:
+    if normal == NORMAL_HERTZ or tangential == TANGENTIAL_MINDLIN:
         sq = math.sqrt(r_eff * delta)
-    fs, k, d0 = normal_force(models[0], delta, hist[h, H_DELTA0], r_eff, sq,
-                             table[mi, mj, P_ESTAR], ymin, e)
-    hist[h, H_DELTA0] = d0
+    fs, k, d0 = normal_force(normal, delta, delta0, r_eff, sq, estar, ymin, e)
+    if normal == NORMAL_HYSTERETIC:
+        hist[h, H_DELTA0] = d0
     sqkm = math.sqrt(k * m_eff) if k > 0.0 else 0.0
-    fd = normal_damping(models[1], beta, table[mi, mj, P_ZETA], sqkm, vn)
+    fd = normal_damping(damping, beta, zeta, sqkm, vn)
     fn = fs + fd
-    if models[0] == NORMAL_HYSTERETIC and fn < 0.0:
+    if normal == NORMAL_HYSTERETIC and fn < 0.0:
         fn = 0.0
     vtx = vrx - vn * nx
     vty = vry - vn * ny
     vtz = vrz - vn * nz
     k1 = loading_stiffness(r_eff, ymin)
-    kt, ct = tangential_stiffness(models[2], sq, m_eff, table[mi, mj, P_GSTAR], beta, k1,
-                                  table[mi, mj, P_XI],
-                                  sqkm if models[0] == NORMAL_HERTZ else 0.0,
-                                  table[mi, mj, P_SQ_ST_SN])
+    kt, ct = tangential_stiffness(tangential, sq, m_eff, gstar, beta, k1, xi,
+                                  sqkm if normal == NORMAL_HERTZ else 0.0, sq_st_sn)
     ftx, fty, ftz = tangential_force(kt, ct, hist, h, nx, ny, nz, vtx, vty, vtz, dt,
-                                     table[mi, mj, P_MU_S], fn)
+                                     mu_s, fn)
     fpos = fn if fn > 0.0 else 0.0
     kr = k if k > 0.0 else k1
     tix, tiy, tiz, tjx, tjy, tjz = rolling_torque(
-        models[3], hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
-        lever_i, lever_j, r_eff, table[mi, mj, P_MU_R], fpos, kr, table[mi, mj, P_ETA_R],
-        inv_ir, dt)
+        rolling, hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
+        lever_i, lever_j, r_eff, mu_r, fpos, kr, eta_r, inv_ir, dt)
     return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz)

@@ -12,6 +12,11 @@ from dataclasses import dataclass
 
 from demcal.errors import ConfigError
 
+#: Floating-point licences of the contact kernels: fused multiply-add, reciprocals,
+#: reassociation and signed zeros, but not "no NaN / no inf" (a blow-up must still
+#: propagate to the positions, where the step loop detects it).
+FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
+
 # normal slot
 NORMAL_HERTZ = 0
 NORMAL_HYSTERETIC = 1
