@@ -690,18 +690,8 @@ class Simulation:
                 continue
             if per_step is None:
                 per_step = self._wall_speed() * dt
-            if self._threaded(self.n_particles):
-                # threads split each kernel, so the host steps one at a time
-                k = 1
-                disp = self._drift()
-                self.time += dt
-                self._wall_travel += per_step
-                rebuild = disp + self._wall_travel > half_skin
-                if not rebuild:
-                    self._compute_forces(True)
-            else:
-                k, rebuild, self.time, self._wall_travel = self._run_compiled(
-                    nsteps - done, half_skin, per_step)
+            k, rebuild, self.time, self._wall_travel = self._run_compiled(
+                nsteps - done, half_skin, per_step)
             self.step_count += k
             done += k
             if rebuild or self._needs_rebuild:
@@ -710,17 +700,32 @@ class Simulation:
                 per_step = None
 
     def _run_compiled(self, nsteps, half_skin, per_step):
-        """Up to ``nsteps`` steps in one compiled call (:mod:`demcal.dem.stepper`)."""
+        """Up to ``nsteps`` steps in one compiled call (:mod:`demcal.dem.stepper`):
+        :func:`~demcal.dem.stepper.run_steps_split` on numba's threads when the
+        particles are split between threads, :func:`~demcal.dem.stepper.run_steps`
+        otherwise."""
         b, s, p, q, w = self._b, self._s, self._p, self._q, self._w
-        return _stepper.run_steps(
-            nsteps, self.dt, self.time, self.gravity, self._models, self._table, half_skin,
-            self._wall_travel, per_step,
-            b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"], b["force"], b["torque"],
-            b["mass"], b["inertia"], b["iso"], b["mat"], b["fixed"], b["start"],
-            s["body"], s["offset"], s["radius"], s["pos"], s["ref"], s["dsq"], s["acc"],
-            p["start"], p["nbr"], p["hist"], p["out"], p["act"],
-            q["start"], q["wid"], q["hist"], q["out"], q["act"],
-            w["kind"], w["params"], w["velocity"], w["omega"], w["origin"], w["material"])
+        head = (self.dt, self.time, self.gravity, self._models, self._table, half_skin,
+                self._wall_travel, per_step,
+                b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"], b["force"],
+                b["torque"], b["mass"], b["inertia"], b["iso"], b["mat"], b["fixed"],
+                b["start"],
+                s["body"], s["offset"], s["radius"], s["pos"], s["ref"], s["dsq"], s["acc"],
+                p["start"], p["nbr"], p["hist"], p["out"], p["act"])
+        tail = (q["start"], q["wid"], q["hist"], q["out"], q["act"],
+                w["kind"], w["params"], w["velocity"], w["omega"], w["origin"],
+                w["material"])
+        if not self._threaded(self.n_particles):
+            return _stepper.run_steps(nsteps, *head, *tail)
+        import numba
+
+        before = numba.get_num_threads()
+        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
+        try:
+            return _stepper.run_steps_split(nsteps, self.threads, *head, p["rev_start"],
+                                            p["rev"], *tail)
+        finally:
+            numba.set_num_threads(before)
 
     def _wall_speed(self):
         """Upper bound of the speed [m/s] of any wall point within reach of a sphere."""

@@ -10,13 +10,20 @@ the walls' travel, or a position became NaN); the host then rebuilds and finishe
 step. Walls keep their geometry during the call: the host only uses it while no wall
 needs re-placing, and accounts for walls that report a velocity through
 ``travel_per_step``.
+
+:func:`run_steps_split` is the same loop for several threads: each kernel runs over
+``nchunks`` fixed contiguous ranges in a numba ``prange`` (pair rows store their
+reactions, ``forces.reverse_sums`` adds them per sphere), which gives bitwise the
+numbers of :func:`run_steps`. It pays four fork-joins per step instead of Python's
+dispatch of each kernel.
 """
 
 import math
 
-from numba import njit
+import numpy as np
+from numba import njit, prange
 
-from .forces import pair_forces, wall_forces
+from .forces import pair_forces, reverse_sums, wall_forces
 from .integrator import drift, gather_kick
 
 
@@ -49,4 +56,49 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
                     womega, worigin, wmat, 0, ns)
         gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
                     binertia, bfixed, bstart, sacc, True, 0, nb)
+    return nsteps, False, time, travel
+
+
+@njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin, travel,
+                    travel_per_step,
+                    bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
+                    biso, bmat, bfixed, bstart,
+                    sbody, soffset, srad, spos, sref, sdsq, sacc,
+                    p_start, p_nbr, p_hist, p_out, p_act, p_rev_start, p_rev,
+                    q_start, q_wid, q_hist, q_out, q_act,
+                    wkind, wparams, wvel, womega, worigin, wmat):
+    """:func:`run_steps` with every kernel split into ``nchunks`` ranges run by numba's
+    threads; same arguments plus ``nchunks`` and the reverse index of the pair list."""
+    nb = bpos.shape[0]
+    ns = spos.shape[0]
+    mxs = np.zeros(nchunks)
+    for k in range(nsteps):
+        for c in prange(nchunks):
+            mxs[c] = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                           binertia, bfixed, bstart, soffset, spos, sref, sdsq,
+                           nb * c // nchunks, nb * (c + 1) // nchunks)
+        mx = 0.0
+        for c in range(nchunks):
+            if not mxs[c] <= mx:   # keeps NaN/inf
+                mx = mxs[c]
+        time += dt
+        travel += travel_per_step
+        if not math.sqrt(mx) + travel <= half_skin:
+            return k + 1, True, time, travel
+        for c in prange(nchunks):
+            pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
+                        biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, False,
+                        ns * c // nchunks, ns * (c + 1) // nchunks)
+        for c in prange(nchunks):
+            lo = ns * c // nchunks
+            hi = ns * (c + 1) // nchunks
+            reverse_sums(sacc, p_out, p_act, p_rev_start, p_rev, lo, hi)
+            wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
+                        biso, bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind,
+                        wparams, wvel, womega, worigin, wmat, lo, hi)
+        for c in prange(nchunks):
+            gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                        binertia, bfixed, bstart, sacc, True,
+                        nb * c // nchunks, nb * (c + 1) // nchunks)
     return nsteps, False, time, travel
