@@ -151,26 +151,38 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
     """Copy each surviving contact's history row from the old list to the new one.
 
     ``old_of_new[i]`` is the old index of new sphere i (-1 for a new sphere). Pair lists
-    (``remap`` true): renumbering is monotone (removal keeps order, insertion appends),
-    so pair (i, j), i < j, was in old row ``old_of_new[i]`` with neighbour
-    ``old_of_new[j]``. Wall lists (``remap`` false): the entries are wall rows, matched
-    as they are.
+    (``remap`` true): pair (i, j), i < j, was the pair of the old spheres
+    ``oi = old_of_new[i]`` and ``oj = old_of_new[j]``, listed in old row ``min(oi, oj)``.
+    When a reordering swapped the two sides (``oi > oj``), the vector entries of the row,
+    which belong to side i (tangential displacement of i against j, rolling spring torque
+    on i), change sign; the residual overlap and the contact flag do not. Wall lists
+    (``remap`` false): the entries are wall rows, matched as they are.
     """
     w = new_hist.shape[1]
     for i in range(lo, hi):
         oi = old_of_new[i]
         for p in range(new_start[i], new_start[i + 1]):
             found = -1
+            swapped = False
             if oi >= 0:
                 oj = old_of_new[new_nbr[p]] if remap else new_nbr[p]
                 if oj >= 0:
-                    for q in range(old_start[oi], old_start[oi + 1]):
-                        if old_nbr[q] == oj:
+                    row = oi
+                    other = oj
+                    if remap and oj < oi:
+                        row = oj
+                        other = oi
+                        swapped = True
+                    for q in range(old_start[row], old_start[row + 1]):
+                        if old_nbr[q] == other:
                             found = q
                             break
             if found >= 0:
                 for k in range(w):
                     new_hist[p, k] = old_hist[found, k]
+                if swapped:
+                    for k in (0, 1, 2, 4, 5, 6):
+                        new_hist[p, k] = -new_hist[p, k]
             else:
                 for k in range(w):
                     new_hist[p, k] = 0.0

@@ -23,7 +23,7 @@ from . import timestep as _ts
 from .contact.kernel import HIST_WIDTH
 from .contact.registry import ContactModel
 
-CHECKPOINT_VERSION = 2
+CHECKPOINT_VERSION = 3
 
 #: Compute backends present. The kernels are written so the same source can be compiled
 #: with numba.cuda later; only the numba CPU backend exists today.
@@ -91,6 +91,15 @@ def _empty_walls():
 def _mean_inertia(inertia):
     """Mean principal moment per body (the rolling inertia of Ai et al. 2011)."""
     return (inertia[:, 0] + inertia[:, 1] + inertia[:, 2]) / 3.0
+
+
+def _closed_up(perm, kept):
+    """``perm`` (engine index -> user index) over the kept entries, with the user indices
+    of the kept entries renumbered 0, 1, ... in their order."""
+    user_kept = np.zeros(perm.size, bool)
+    user_kept[perm[kept]] = True
+    rank = np.cumsum(user_kept) - 1
+    return rank[perm[kept]]
 
 
 def _random_quaternions(n, rng):
@@ -207,10 +216,15 @@ class Simulation:
         self._alloc_lists(0, 0, 0)
         self._wall_travel = 0.0
         self._old_of_new = None
+        self._perm = None          # (body, sphere): engine index -> user index when sorted
+        self._user_view = False    # arrays in user order while the engine keeps a sort
+        self._carry_engine = None  # the engine view's _old_of_new during a user view
+        self._last_sort = None
         self._spare_p = None
         self._needs_rebuild = True
         self._forces_valid = False
         self.rebuilds = 0
+        self.sorts = 0             # spatial reorderings (see sort_threshold)
         self._row_width = 16   # scratch width of the neighbour search (grows as needed)
         self._wall_width = 4
 
@@ -310,6 +324,7 @@ class Simulation:
                                       "demcal.particles.templates template or a radius.")
         mi = self.material_table.index(material)
         rho = self.materials[mi].density
+        self._release_order()
         radii = np.asarray(tpl.radii, dtype=float).reshape(-1)
         centers = np.asarray(tpl.centers, dtype=float).reshape(-1, 3)
         ipd = np.asarray(tpl.inertia_per_density, dtype=float).reshape(3)
@@ -419,6 +434,7 @@ class Simulation:
 
     def remove_particles(self, which):
         """Remove particles given by a boolean mask or indices (history of the others kept)."""
+        self._release_order()
         keep = np.ones(self.n_particles, bool)
         keep[np.asarray(which)] = False
         if keep.all():
@@ -439,8 +455,87 @@ class Simulation:
         self._s["body"] = new_body_of_old[self._s["body"]]
         prev = self._old_of_new  # compose with a renumbering not yet applied
         self._old_of_new = old_sphere if prev is None else prev[old_sphere]
+        if self._perm is not None:
+            # the user numbering closes up in order over the particles that stay
+            self._perm = tuple(_closed_up(perm, kept)
+                               for perm, kept in zip(self._perm, (keep, skeep)))
         self._needs_rebuild = True
         self._forces_valid = False
+
+    # ------------------------------------------------------------------ ordering --
+    #: Particles are reordered in space (cell order, as LIGGGHTS' ``atom_modify sort``)
+    #: at a neighbour rebuild at most every ``sort_interval`` steps when there are at
+    #: least ``sort_threshold`` spheres: neighbours in space become neighbours in
+    #: memory. Users never see it: every public method and ``run()``'s reporters get the
+    #: particles in user order (insertion order), and the sort is undone and redone
+    #: in place, so views of the arrays stay live and results do not depend on how a
+    #: run is split into calls.
+    sort_threshold = 4096
+    sort_interval = 1000
+
+    def _permute(self, border):
+        """Reorder the bodies in place so that new body k is old body ``border[k]`` (its
+        spheres follow it); returns the sphere order (new sphere -> old sphere)."""
+        b, s = self._b, self._s
+        start = b["start"]
+        counts = np.diff(start)
+        c_new = counts[border]
+        new_start = np.concatenate([[0], np.cumsum(c_new)]).astype(np.int64)
+        sorder = (np.arange(new_start[-1], dtype=np.int64) - np.repeat(new_start[:-1], c_new)
+                  + np.repeat(start[:-1][border], c_new))
+        new_of_old = np.empty_like(border)
+        new_of_old[border] = np.arange(border.size)
+        for k, v in b.items():
+            v[...] = new_start if k == "start" else v[border]
+        for v in s.values():
+            v[...] = v[sorder]
+        s["body"][...] = new_of_old[s["body"]]
+        return sorder
+
+    def _sort_spatially(self, cell):
+        """Sort the bodies by the cell (side ``cell``) of their centre of mass."""
+        pos = self._b["pos"]
+        key = np.floor((pos - pos.min(axis=0)) / cell).astype(np.int64)
+        dims = key.max(axis=0) + 1
+        border = np.argsort(key[:, 0] + dims[0] * (key[:, 1] + dims[1] * key[:, 2]),
+                            kind="stable")
+        self._last_sort = self.step_count
+        if np.array_equal(border, np.arange(border.size)):
+            return
+        sorder = self._permute(border)
+        self.sorts += 1
+        prev = self._old_of_new
+        self._old_of_new = sorder if prev is None else prev[sorder]
+        if self._perm is None:
+            self._perm = (border, sorder)
+        else:
+            self._perm = (self._perm[0][border], self._perm[1][sorder])
+
+    def _user_order(self):
+        """Put the arrays in user order (a no-op unless the engine has sorted them)."""
+        if self._perm is None or self._user_view:
+            return
+        sorder = self._permute(np.argsort(self._perm[0]))
+        self._carry_engine = self._old_of_new
+        self._old_of_new = sorder if self._old_of_new is None else self._old_of_new[sorder]
+        self._user_view = True
+
+    def _engine_order(self):
+        """Redo the engine's sort after :meth:`_user_order` (the lists stay valid)."""
+        if not self._user_view:
+            return
+        self._permute(self._perm[0])
+        self._old_of_new = self._carry_engine
+        self._carry_engine = None
+        self._user_view = False
+
+    def _release_order(self):
+        """The particle set is about to change: the user order becomes the engine's
+        order (the next rebuild carries the contacts over through ``_old_of_new``)."""
+        self._user_order()
+        self._perm = None
+        self._user_view = False
+        self._carry_engine = None
 
     #: Below this many items a loop runs in the calling thread only.
     parallel_threshold = 2048
@@ -535,6 +630,10 @@ class Simulation:
                 s = self._s
                 ns = self.n_spheres
         skin = self.skin
+        if (ns >= self.sort_threshold and (self._last_sort is None
+                                           or self.step_count - self._last_sort
+                                           >= self.sort_interval)):
+            self._sort_spatially(2.0 * float(s["radius"].max()) + skin)
         old_p, old_q = self._p, self._q
         old_of_new = self._old_of_new
         if old_of_new is None:
@@ -662,6 +761,7 @@ class Simulation:
         """Advance exactly ``nsteps`` steps."""
         if nsteps <= 0:
             return
+        self._engine_order()
         if self.n_spheres == 0:
             dt = self._dt_user if self._dt_user else 0.0
             for _ in range(nsteps):
@@ -786,6 +886,7 @@ class Simulation:
                     if k == nxt:
                         r.report(self)
         finally:
+            self._user_order()
             for r in reporters:
                 if hasattr(r, "finish"):
                     r.finish(self)
@@ -795,6 +896,7 @@ class Simulation:
     @property
     def state(self) -> State:
         """Live views of the arrays (see :class:`State`)."""
+        self._user_order()
         b, s = self._b, self._s
         return State(positions=b["pos"], velocities=b["vel"], omegas=b["omega"],
                      quaternions=b["quat"], angular_momenta=b["angmom"],
@@ -834,23 +936,33 @@ class Simulation:
 
     def contacts(self):
         """Current particle-particle contacts as (i_sphere, j_sphere, force on i (3,))."""
+        self._user_order()
         p = self._p
-        ns = self.n_spheres
-        rows = np.repeat(np.arange(ns), np.diff(p["start"]))
+        rows = np.repeat(np.arange(p["start"].shape[0] - 1), np.diff(p["start"]))
         npair = int(p["start"][-1])
         active = p["act"][:npair]
-        return rows[active], p["nbr"][:npair][active], p["out"][:npair][active, :3]
+        i, j = rows[active], p["nbr"][:npair][active]
+        if self._perm is not None:  # the lists are in the engine's order
+            i, j = self._perm[1][i], self._perm[1][j]
+        return i, j, p["out"][:npair][active, :3]
 
     # ------------------------------------------------------------------ checkpoints --
     def save_checkpoint(self, path):
         """Write the full state (npz) so that :meth:`load_checkpoint` restarts bit-identically."""
+        self._user_order()
         arrays = {}
         for prefix, d in (("b_", self._b), ("s_", self._s), ("p_", self._p), ("q_", self._q)):
             for k, v in d.items():
                 arrays[prefix + k] = v
         arrays["scalars"] = np.array([self.time, self.step_count, self.dt, self._wall_travel,
                                       self.escaped, float(self._forces_valid),
-                                      float(self._needs_rebuild), CHECKPOINT_VERSION])
+                                      float(self._needs_rebuild), CHECKPOINT_VERSION,
+                                      -1.0 if self._last_sort is None else self._last_sort])
+        # the engine's spatial sort (the lists are in its order) and pending renumbering
+        optional = dict(perm_b=None if self._perm is None else self._perm[0],
+                        perm_s=None if self._perm is None else self._perm[1],
+                        carry_engine=self._carry_engine, old_of_new=self._old_of_new)
+        arrays.update({k: v for k, v in optional.items() if v is not None})
         arrays["gravity"] = self.gravity
         arrays["models"] = self._models
         tmp = str(path) + ".tmp.npz"
@@ -877,6 +989,8 @@ class Simulation:
             self._q = {k[2:]: z[k].copy() for k in z.files if k.startswith("q_")}
             sc = z["scalars"]
             self.gravity = z["gravity"].copy()
+            opt = {k: (z[k].copy() if k in z.files else None)
+                   for k in ("perm_b", "perm_s", "carry_engine", "old_of_new")}
         if int(sc[7]) < 2:
             # format 1 (before per-sphere force sums): rebuild the derived arrays; the
             # forces are evaluated again on the next step (not bit-identical)
@@ -895,7 +1009,11 @@ class Simulation:
         self.escaped = int(sc[4])
         self._forces_valid = bool(sc[5])
         self._needs_rebuild = bool(sc[6])
-        self._old_of_new = None
+        self._old_of_new = opt["old_of_new"]
+        self._perm = None if opt["perm_b"] is None else (opt["perm_b"], opt["perm_s"])
+        self._user_view = self._perm is not None
+        self._carry_engine = opt["carry_engine"]
+        self._last_sort = int(sc[8]) if sc.shape[0] > 8 and sc[8] >= 0 else None
         self._spare_p = None
         if self.walls is not None and self._walls_moving:
             self.walls.update(self.time)
