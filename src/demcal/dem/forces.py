@@ -39,7 +39,7 @@ ACC_WIDTH = 6   # sacc columns: force on the sphere (3), torque on its body (3)
 OUT_WIDTH = 6   # pair_out / wall_out columns: force on i (3), torque on the other side (3)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, wiy, wiz,
                      mi, iso_i, vjx, vjy, vjz, wjx, wjy, wjz, mj, iso_j):
     """Slip of one contact and, for the rolling models that need them, its lever lengths.

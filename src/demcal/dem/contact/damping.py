@@ -23,7 +23,7 @@ from .registry import DAMPING_HYSTERETIC, DAMPING_TSUJI, DAMPING_VISCOUS, FASTMA
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def normal_damping(model, beta, zeta, sqkm, vn):
     """Damping force [N] along the normal (positive = repulsive); ``sqkm`` is
     ``sqrt(k m*)`` with the normal slot's stiffness k (0 when k <= 0)."""

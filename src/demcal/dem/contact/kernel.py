@@ -22,13 +22,13 @@ HIST_WIDTH = 8
 H_DELTA0 = 3
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def reset_history(hist, h):
     for k in range(HIST_WIDTH):
         hist[h, k] = 0.0
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
             nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
             lever_i, lever_j, r_eff, m_eff, inv_ir, dt):

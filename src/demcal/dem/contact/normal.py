@@ -21,13 +21,13 @@ from numba import njit
 from .registry import FASTMATH, NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def hertz(delta, sq, estar):
     """Hertz spring force and Sn, given ``sq = sqrt(R* delta)``."""
     return 4.0 / 3.0 * estar * sq * delta, 2.0 * estar * sq
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def hysteretic(delta, delta0, r_eff, ymin, e):
     k1 = 5.0 * r_eff * ymin
     k2 = k1 / (e * e)
@@ -40,7 +40,7 @@ def hysteretic(delta, delta0, r_eff, ymin, e):
     return 0.0, 0.0, delta0
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def normal_force(model, delta, delta0, r_eff, sq, estar, ymin, e):
     """Dispatch on the normal slot; see the module docstring. ``sq`` is
     ``sqrt(R* delta)`` (computed once per contact by the caller when a slot needs it)."""
@@ -55,7 +55,7 @@ def normal_force(model, delta, delta0, r_eff, sq, estar, ymin, e):
     return 0.0, 0.0, delta0
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def loading_stiffness(r_eff, ymin):
     """K1 = 5 R* min(Y_i, Y_j) [N/m] (Walton 2006, EDEM HSCM)."""
     return 5.0 * r_eff * ymin

@@ -22,7 +22,7 @@ from numba import njit
 from .registry import FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_RELATIVE
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def rolling_torque(model, hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
                    lever_i, lever_j, r_eff, mu_r, fn, kn, eta_r, inv_ir, dt):
     """Rolling torques ``(tix, tiy, tiz, tjx, tjy, tjz)``; EPSD updates ``hist[h, 4:7]``."""

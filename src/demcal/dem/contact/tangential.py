@@ -25,7 +25,7 @@ from .registry import FASTMATH, TANGENTIAL_LINEAR, TANGENTIAL_MINDLIN
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def tangential_stiffness(model, sq, m_eff, gstar, beta, k1, xi, hertz_sqkm, sq_st_sn):
     """``(kt, ct)``: spring stiffness [N/m] and damping coefficient [N s/m].
 
@@ -44,7 +44,7 @@ def tangential_stiffness(model, sq, m_eff, gstar, beta, k1, xi, hertz_sqkm, sq_s
     return 0.0, 0.0
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def tangential_force(kt, ct, hist, h, nx, ny, nz, vtx, vty, vtz, dt, mu_s, fn):
     """Tangential force on particle i [N] (spring ``kt``, damping ``ct`` from
     :func:`tangential_stiffness`); updates ``hist[h, 0:3]``."""
