@@ -14,7 +14,7 @@ needs re-placing, and accounts for walls that report a velocity through
 :func:`run_steps_split` is the same loop for several threads: each kernel runs over
 ``nchunks`` fixed contiguous ranges in a numba ``prange`` (pair rows store their
 reactions, ``forces.reverse_sums`` adds them per sphere), which gives bitwise the
-numbers of :func:`run_steps`. It pays four fork-joins per step instead of Python's
+numbers of :func:`run_steps`. It pays two fork-joins per step instead of Python's
 dispatch of each kernel.
 """
 
@@ -59,6 +59,16 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
     return nsteps, False, time, travel
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _largest(mxs):
+    """Largest entry, NaN and inf kept (they force a rebuild, which reports them)."""
+    mx = 0.0
+    for c in range(mxs.shape[0]):
+        if not mxs[c] <= mx:
+            mx = mxs[c]
+    return mx
+
+
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
 def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin, travel,
                     travel_per_step,
@@ -68,37 +78,44 @@ def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin
                     p_start, p_nbr, p_hist, p_out, p_act, p_rev_start, p_rev,
                     q_start, q_wid, q_hist, q_out, q_act,
                     wkind, wparams, wvel, womega, worigin, wmat):
-    """:func:`run_steps` with every kernel split into ``nchunks`` ranges run by numba's
-    threads; same arguments plus ``nchunks`` and the reverse index of the pair list."""
+    """:func:`run_steps` split between numba's threads; same arguments plus ``nchunks``
+    and the reverse index of the pair list.
+
+    Chunk c holds the bodies ``[nb c / nchunks, nb (c + 1) / nchunks)`` and their
+    spheres. A step is two parallel regions: the pair rows of each chunk (storing the
+    reactions), then, chunk by chunk, the reactions and wall contacts of its spheres,
+    the kick of its bodies and their drift into the next step, which touch nothing of
+    another chunk.
+    """
     nb = bpos.shape[0]
-    ns = spos.shape[0]
     mxs = np.zeros(nchunks)
+    for c in prange(nchunks):
+        mxs[c] = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                       binertia, bfixed, bstart, soffset, spos, sref, sdsq,
+                       nb * c // nchunks, nb * (c + 1) // nchunks)
     for k in range(nsteps):
-        for c in prange(nchunks):
-            mxs[c] = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                           binertia, bfixed, bstart, soffset, spos, sref, sdsq,
-                           nb * c // nchunks, nb * (c + 1) // nchunks)
-        mx = 0.0
-        for c in range(nchunks):
-            if not mxs[c] <= mx:   # keeps NaN/inf
-                mx = mxs[c]
         time += dt
         travel += travel_per_step
-        if not math.sqrt(mx) + travel <= half_skin:
+        if not math.sqrt(_largest(mxs)) + travel <= half_skin:
             return k + 1, True, time, travel
         for c in prange(nchunks):
             pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, False,
-                        ns * c // nchunks, ns * (c + 1) // nchunks)
+                        bstart[nb * c // nchunks], bstart[nb * (c + 1) // nchunks])
+        last = k + 1 == nsteps
         for c in prange(nchunks):
-            lo = ns * c // nchunks
-            hi = ns * (c + 1) // nchunks
-            reverse_sums(sacc, p_out, p_act, p_rev_start, p_rev, lo, hi)
+            b0 = nb * c // nchunks
+            b1 = nb * (c + 1) // nchunks
+            s0 = bstart[b0]
+            s1 = bstart[b1]
+            reverse_sums(sacc, p_out, p_act, p_rev_start, p_rev, s0, s1)
             wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind,
-                        wparams, wvel, womega, worigin, wmat, lo, hi)
-        for c in prange(nchunks):
+                        wparams, wvel, womega, worigin, wmat, s0, s1)
             gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                        binertia, bfixed, bstart, sacc, True,
-                        nb * c // nchunks, nb * (c + 1) // nchunks)
+                        binertia, bfixed, bstart, sacc, True, b0, b1)
+            if not last:
+                mxs[c] = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque,
+                               bmass, binertia, bfixed, bstart, soffset, spos, sref, sdsq,
+                               b0, b1)
     return nsteps, False, time, travel

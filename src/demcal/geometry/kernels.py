@@ -59,7 +59,7 @@ KIND_NAMES = ("plane", "disk", "cylinder", "cone", "rect", "triangle")
 _TINY = 1e-300
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def perpendicular(ax, ay, az):
     """A unit vector perpendicular to the unit vector ``(ax, ay, az)``."""
     # cross with the coordinate axis least aligned with a
@@ -76,7 +76,7 @@ def perpendicular(ax, ay, az):
     return px * inv, py * inv, pz * inv
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _to_point(x, y, z, qx, qy, qz, fx, fy, fz):
     """Distance and unit direction from surface point q to (x, y, z).
 
@@ -92,7 +92,7 @@ def _to_point(x, y, z, qx, qy, qz, fx, fy, fz):
     return d, fx, fy, fz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _clamp(v, lo, hi):
     """``v`` limited to ``[lo, hi]`` (``lo <= hi``)."""
     if v < lo:
@@ -102,7 +102,7 @@ def _clamp(v, lo, hi):
     return v
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _to_point_sided(x, y, z, qx, qy, qz, nx, ny, nz, side):
     """:func:`_to_point` with the fallback normal ``n`` turned towards the query point's
     ``side`` of a two-sided flat surface (``-n`` where ``side < 0``)."""
@@ -111,7 +111,7 @@ def _to_point_sided(x, y, z, qx, qy, qz, nx, ny, nz, side):
     return _to_point(x, y, z, qx, qy, qz, nx, ny, nz)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _axial_coordinates(cx, cy, cz, ax, ay, az, x, y, z):
     """Coordinates of (x, y, z) about the axis through ``c`` along the unit vector ``a``.
 
@@ -132,7 +132,7 @@ def _axial_coordinates(cx, cy, cz, ax, ay, az, x, y, z):
     return h, rho, ux, uy, uz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _from_meridian(dr, dh, tol, fr, fh, ux, uy, uz, ax, ay, az):
     """Distance and world normal from the offset ``(dr, dh)`` (radial, axial) from a
     surface of revolution about the unit axis ``a`` to the query point in its meridian
@@ -149,7 +149,7 @@ def _from_meridian(dr, dh, tol, fr, fh, ux, uy, uz, ax, ay, az):
     return d, nr * ux + nh * ax, nr * uy + nh * ay, nr * uz + nh * az
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def plane_distance(p, x, y, z):
     """Signed distance to an infinite plane (point ``p[0:3]``, unit normal ``p[3:6]``)."""
     nx = p[3]
@@ -159,7 +159,7 @@ def plane_distance(p, x, y, z):
     return d, nx, ny, nz
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def disk_distance(p, x, y, z):
     """Distance to a flat disk or annulus (two-sided, including its rims)."""
     cx, cy, cz, ax, ay, az, r_out, r_in = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]
@@ -168,7 +168,7 @@ def disk_distance(p, x, y, z):
     return _to_point_sided(x, y, z, cx + rc * ux, cy + rc * uy, cz + rc * uz, ax, ay, az, h)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cone_distance(p, x, y, z):
     """Distance to a finite conical frustum shell (open ends, two-sided).
 
@@ -188,7 +188,7 @@ def cone_distance(p, x, y, z):
     return _from_meridian(rho - sr, h - sh, tol, gh, -gr, ux, uy, uz, ax, ay, az)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def cylinder_distance(p, x, y, z):
     """Distance to a finite cylindrical shell (open ends, two-sided, with rims)."""
     ax, ay, az, radius, length = p[3], p[4], p[5], p[6], p[7]
@@ -198,7 +198,7 @@ def cylinder_distance(p, x, y, z):
     return _from_meridian(rho - radius, h - hc, tol, 1.0, 0.0, ux, uy, uz, ax, ay, az)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def rect_distance(p, x, y, z):
     """Distance to a finite rectangle (two-sided, with edges and corners)."""
     cx, cy, cz, ux, uy, uz, vx, vy, vz = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
@@ -214,7 +214,7 @@ def rect_distance(p, x, y, z):
     return _to_point_sided(x, y, z, sx, sy, sz, nx, ny, nz, wx * nx + wy * ny + wz * nz)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def triangle_closest_point(p, x, y, z):
     """Closest point to (x, y, z) on the triangle ``p[0:9]`` (Ericson 2005, 5.1.5)."""
     ax_ = p[0]
@@ -273,7 +273,7 @@ def triangle_closest_point(p, x, y, z):
     )
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def triangle_distance(p, x, y, z):
     """Distance to one triangle (two-sided, with edges and vertices)."""
     nx, ny, nz = p[9], p[10], p[11]
