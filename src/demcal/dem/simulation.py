@@ -544,10 +544,12 @@ class Simulation:
         """Run ``fn(*args, lo, hi)`` over [0, n) in ``self.threads`` contiguous chunks.
 
         The kernels are compiled with ``nogil=True``; each item is written by one chunk,
-        so the result does not depend on the number of threads.
+        so the result does not depend on the number of threads. Whether to split follows
+        the number of particles, as for the step loop (handing a few thousand spheres of
+        a two-sphere-clump heap to a thread costs more than it saves).
         """
         t = self.threads
-        if not self._threaded(n):
+        if not self._threaded(self.n_particles):
             return [fn(*args, 0, n)]
         if self._pool is None:
             self._pool = ThreadPoolExecutor(max_workers=t - 1,
@@ -716,7 +718,7 @@ class Simulation:
         dt = self.dt
         ns = self.n_spheres
         if ns:
-            split = self._threaded(ns)
+            split = self._threaded(self.n_particles)
             self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"],
                       s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
                       b["iso"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
