@@ -65,3 +65,57 @@ def test_rotating_plate_moves_particle_with_its_surface(backend):
     speed = w * math.hypot(length, RADIUS)
     assert np.linalg.norm(v) == pytest.approx(speed, rel=0.03)
     assert v[2] > 0
+
+
+def _lifted_cylinder(backend, threads=1):
+    """Spheres in a capped cylinder that is lifted off a base plate, with a triangle
+    pair (a square lid) lifted along with it."""
+    from demcal.geometry import Cylinder, TriangleMesh
+
+    rc, hc = 6 * RADIUS, 12 * RADIUS
+    lift = Translation(velocity=(0, 0, 1.0), start=0.02, stop=0.06)
+    lid = TriangleMesh([[-rc, -rc, hc + RADIUS], [rc, -rc, hc + RADIUS],
+                        [rc, rc, hc + RADIUS], [-rc, rc, hc + RADIUS]],
+                       [[0, 1, 2], [0, 2, 3]], material=1, name="lid", motion=lift)
+    walls = WallSet([Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="base"),
+                     Cylinder(base=(0, 0, 0), axis=(0, 0, 1), radius=rc, length=hc,
+                              top=True, material=1, name="tube", motion=lift), lid])
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.5,
+                                                    rolling_friction=0.05),
+                     walls=walls, backend=backend, threads=threads)
+    rng = np.random.default_rng(4)
+    pos = []
+    while len(pos) < 30:
+        p = rng.uniform((-rc, -rc, RADIUS), (rc, rc, hc - RADIUS))
+        if math.hypot(p[0], p[1]) < rc - RADIUS and all(np.linalg.norm(p - q) > 2.1 * RADIUS
+                                                        for q in pos):
+            pos.append(p)
+    sim.add_particles(RADIUS, np.array(pos))
+    return sim
+
+
+def test_translating_walls_placed_in_the_compiled_loop_as_from_python(backend, monkeypatch):
+    # The step loop places constant-velocity translations itself (no return to Python
+    # each step); the numbers must be those of placing them from Python every step.
+    fast = _lifted_cylinder(backend)
+    fast.run(duration=0.1)
+    assert fast.walls.time == pytest.approx(fast.time)
+    monkeypatch.setattr(Simulation, "_translations", lambda self: None)
+    slow = _lifted_cylinder(backend)
+    slow.run(duration=0.1)
+    for name in ("positions", "velocities", "angular_momenta"):
+        assert np.array_equal(getattr(fast.state, name), getattr(slow.state, name)), name
+    assert np.array_equal(fast._w["params"], slow._w["params"])
+    # the tube went up by 40 mm and the heap spread under it
+    assert fast.walls.params[fast.walls.rows_of("tube")][0, 2] == pytest.approx(0.04)
+    assert fast.state.positions[:, 2].max() < 8 * RADIUS
+
+
+def test_translating_walls_split_between_threads(backend):
+    runs = []
+    for threads in (1, 2):
+        sim = _lifted_cylinder(backend, threads=threads)
+        sim.parallel_threshold = 0
+        sim.run(duration=0.1)
+        runs.append(sim.state.positions.copy())
+    assert np.array_equal(runs[0], runs[1])

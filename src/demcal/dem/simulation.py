@@ -752,12 +752,18 @@ class Simulation:
                         s["pos"], s["ref"], s["dsq"])
         return math.sqrt(max(res))
 
-    def _walls_need_update(self):
-        """Whether some wall must be re-placed before the next step (a continuous motion,
-        or a wall whose motion changed since it was last placed)."""
+    def _translations(self):
+        """The compiled loop's table of walls it places itself (constant-velocity
+        translations, ``WallSet.translations``), or None when some moving wall must be
+        placed from Python before every step (a rotation, a function of time, or a
+        wall whose motion changed since it was last placed)."""
         w = self.walls
-        return (self._walls_moving and w is not None
-                and any(g.motion.moving for g in getattr(w, "walls", ())))
+        nw = self._w["kind"].shape[0]
+        if (self._walls_moving and w is not None
+                and any(g.motion.moving for g in getattr(w, "walls", ()))):
+            return w.translations() if hasattr(w, "translations") else None
+        return (np.zeros(nw, np.int64), np.zeros((nw, 3)), np.zeros(nw), np.zeros(nw),
+                np.zeros((nw, 16)), np.zeros((nw, 3)))
 
     def _advance(self, nsteps):
         """Advance exactly ``nsteps`` steps."""
@@ -778,7 +784,8 @@ class Simulation:
         done = 0
         per_step = None  # wall travel per step [m]; the bound moves with the spheres
         while done < nsteps:
-            if self._walls_need_update():
+            moves = self._translations()
+            if moves is None:
                 # a moving wall: one step at a time, the walls placed before each force
                 disp = self._drift()
                 self.time += dt
@@ -791,9 +798,11 @@ class Simulation:
                 per_step = None
                 continue
             if per_step is None:
-                per_step = self._wall_speed() * dt
+                per_step = self._wall_speed(moves) * dt
             k, rebuild, self.time, self._wall_travel = self._run_compiled(
-                nsteps - done, half_skin, per_step)
+                nsteps - done, half_skin, per_step, moves)
+            if moves[0].any():
+                self._place_walls()  # the WallSet (and the bounding boxes) catch up
             self.step_count += k
             done += k
             if rebuild or self._needs_rebuild:
@@ -801,7 +810,7 @@ class Simulation:
                 self._compute_forces(True)
                 per_step = None
 
-    def _run_compiled(self, nsteps, half_skin, per_step):
+    def _run_compiled(self, nsteps, half_skin, per_step, moves):
         """Up to ``nsteps`` steps in one compiled call (:mod:`demcal.dem.stepper`):
         :func:`~demcal.dem.stepper.run_steps_split` on numba's threads when the
         particles are split between threads, :func:`~demcal.dem.stepper.run_steps`
@@ -816,7 +825,7 @@ class Simulation:
                 p["start"], p["nbr"], p["hist"], p["out"], p["act"])
         tail = (q["start"], q["wid"], q["hist"], q["out"], q["act"],
                 w["kind"], w["params"], w["velocity"], w["omega"], w["origin"],
-                w["material"])
+                w["material"], *moves)
         if not self._threaded(self.n_particles):
             return _stepper.run_steps(nsteps, *head, *tail)
         import numba
@@ -829,10 +838,13 @@ class Simulation:
         finally:
             numba.set_num_threads(before)
 
-    def _wall_speed(self):
-        """Upper bound of the speed [m/s] of any wall point within reach of a sphere."""
+    def _wall_speed(self, moves=None):
+        """Upper bound of the speed [m/s] of any wall point within reach of a sphere
+        (a translating row counts with its translation speed, moving yet or not)."""
         vel = self._w["velocity"]
         om = self._w["omega"]
+        if moves is not None and moves[0].any():
+            vel = np.where(moves[0][:, None] == 1, moves[1], vel)
         if not vel.size or not (np.any(vel) or np.any(om)):
             return 0.0
         sp = self._s["pos"]
@@ -844,11 +856,15 @@ class Simulation:
         speed = np.linalg.norm(vel, axis=1) + np.linalg.norm(om, axis=1) * reach
         return float(speed.max())
 
-    def _move_walls(self, dt):
+    def _place_walls(self):
+        """Move the walls to the current time and copy their rows into the engine."""
         w = self.walls
         w.update(self.time)
         for key in ("params", "velocity", "omega", "origin", "aabb"):
             self._w[key][...] = getattr(w, key)
+
+    def _move_walls(self, dt):
+        self._place_walls()
         self._wall_travel += self._wall_speed() * dt
 
     def run(self, duration=None, steps=None, reporters=()):

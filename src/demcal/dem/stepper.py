@@ -23,8 +23,31 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from demcal.geometry.kernels import TRIANGLE
+
 from .forces import pair_forces, reverse_sums, wall_forces
 from .integrator import drift, gather_kick
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
+                      wparams, worigin, wvel):
+    """Place the walls that move by a constant-velocity translation at ``time``, with
+    the very operations of ``WallSet.update`` (``x = x_ref + v * t_active``; directions
+    and sizes do not change under a translation), so a run gives the same numbers
+    whether the host or this loop places them."""
+    for w in range(tflag.shape[0]):
+        if tflag[w] == 0:
+            continue
+        at = min(max(time - tstart[w], 0.0), tstop[w] - tstart[w])
+        moving = tstart[w] <= time < tstop[w]
+        npts = 3 if wkind[w] == TRIANGLE else 1
+        for k in range(3):
+            d = tvel[w, k] * at
+            for q in range(npts):
+                wparams[w, 3 * q + k] = ref_params[w, 3 * q + k] + d
+            worigin[w, k] = ref_origin[w, k] + d
+            wvel[w, k] = tvel[w, k] if moving else 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -34,8 +57,13 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
               sbody, soffset, srad, spos, sref, sdsq, sacc,
               p_start, p_nbr, p_hist, p_out, p_act,
               q_start, q_wid, q_hist, q_out, q_act,
-              wkind, wparams, wvel, womega, worigin, wmat):
+              wkind, wparams, wvel, womega, worigin, wmat,
+              tflag, tvel, tstart, tstop, ref_params, ref_origin):
     """Advance up to ``nsteps`` steps; returns ``(steps, rebuild, time, travel)``.
+
+    Walls flagged in ``tflag`` are placed at each step's time by
+    :func:`place_translating` (the arguments after ``wmat``); the others keep their
+    geometry.
 
     With ``rebuild`` true the last step has drifted but its forces are not evaluated:
     the host rebuilds the lists, then evaluates forces and kicks.
@@ -49,6 +77,8 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
         travel += travel_per_step
         if math.sqrt(mx) + travel > half_skin:
             return k + 1, True, time, travel
+        place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
+                          wparams, worigin, wvel)
         pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
                     bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, True, 0, ns)
         wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
@@ -77,7 +107,8 @@ def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin
                     sbody, soffset, srad, spos, sref, sdsq, sacc,
                     p_start, p_nbr, p_hist, p_out, p_act, p_rev_start, p_rev,
                     q_start, q_wid, q_hist, q_out, q_act,
-                    wkind, wparams, wvel, womega, worigin, wmat):
+                    wkind, wparams, wvel, womega, worigin, wmat,
+                    tflag, tvel, tstart, tstop, ref_params, ref_origin):
     """:func:`run_steps` split between numba's threads; same arguments plus ``nchunks``
     and the reverse index of the pair list.
 
@@ -98,6 +129,8 @@ def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin
         travel += travel_per_step
         if not math.sqrt(_largest(mxs)) + travel <= half_skin:
             return k + 1, True, time, travel
+        place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
+                          wparams, worigin, wvel)
         for c in prange(nchunks):
             pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, False,

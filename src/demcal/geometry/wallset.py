@@ -98,6 +98,36 @@ class WallSet:
     def n_groups(self) -> int:
         return len(self.walls)
 
+    def translations(self):
+        """Rows whose wall moves by a :class:`~demcal.geometry.motion.Translation`, for
+        the engine's compiled step loop, which places them itself (see
+        ``demcal.dem.stepper.place_translating``).
+
+        Returns ``(flag, velocity, start, stop, ref_params, ref_origin)``: ``flag[w]`` 1
+        for such a row, its translation velocity [m/s] and active interval [s], and the
+        reference parameters and origin the motion is applied to; or None when some
+        moving wall has another motion (the engine then places the walls from Python
+        every step).
+        """
+        from demcal.geometry.motion import Translation
+
+        nw = len(self.kind)
+        flag = np.zeros(nw, np.int64)
+        vel = np.zeros((nw, 3))
+        start = np.zeros(nw)
+        stop = np.zeros(nw)
+        for g, w in enumerate(self.walls):
+            if not w.motion.moving:
+                continue
+            if type(w.motion) is not Translation:
+                return None
+            s = self._slices[g]
+            flag[s] = 1
+            vel[s] = w.motion.velocity
+            start[s] = w.motion.start
+            stop[s] = w.motion.stop
+        return flag, vel, start, stop, self._ref_params, self._ref_origin
+
     def rows_of(self, name: str) -> slice:
         """The row slice of the wall called ``name``."""
         try:
