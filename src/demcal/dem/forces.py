@@ -33,7 +33,7 @@ from numba import njit
 from demcal.geometry.kernels import wall_distance
 
 from .contact.kernel import HIST_WIDTH, contact
-from .contact.registry import ROLLING_CONSTANT, ROLLING_EPSD
+from .contact.registry import LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD
 
 ACC_WIDTH = 6   # sacc columns: force on the sphere (3), torque on its body (3)
 OUT_WIDTH = 6   # pair_out / wall_out columns: force on i (3), torque on the other side (3)
@@ -65,7 +65,7 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
     return vrx, vry, vrz, li, lj, inv_ir
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
 def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, row_start, nbr, hist, pair_out, active, sacc, scatter, lo, hi):
     """Pair contacts of rows [lo, hi).
@@ -224,7 +224,7 @@ def reverse_sums(sacc, pair_out, active, rev_start, rev_pair, lo, hi):
         sacc[j, 5] = tz + sacc[j, 5]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
 def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, wall_start, wid, whist, wall_out, wactive, sacc,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):

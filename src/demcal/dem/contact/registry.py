@@ -12,10 +12,14 @@ from dataclasses import dataclass
 
 from demcal.errors import ConfigError
 
-#: Floating-point licences of the contact kernels: fused multiply-add, reciprocals,
-#: reassociation and signed zeros, but not "no NaN / no inf" (a blow-up must still
-#: propagate to the positions, where the step loop detects it).
+#: Floating-point licences of the contact kernels when compiled on their own: fused
+#: multiply-add, reciprocals, reassociation and signed zeros, but not "no NaN / no inf"
+#: (a blow-up must still propagate to the positions, where the step loop detects it).
 FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
+#: The contact loops (``dem/forces.py``), into which the kernels are inlined at numba IR
+#: level and whose flags therefore apply: fused multiply-add and reciprocals only, so
+#: that every sum keeps its order (results independent of the thread count).
+LOOP_FASTMATH = {"contract", "arcp"}
 
 # normal slot
 NORMAL_HERTZ = 0
