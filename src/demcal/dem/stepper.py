@@ -7,9 +7,10 @@ once per neighbour-list period instead of four times per step; results are bitwi
 of the step-by-step path. It stops early, right after a drift, when the neighbour list
 must be rebuilt (a sphere moved more than half the skin since the last build, counting
 the walls' travel, or a position became NaN); the host then rebuilds and finishes that
-step. Walls keep their geometry during the call: the host only uses it while no wall
-needs re-placing, and accounts for walls that report a velocity through
-``travel_per_step``.
+step. Walls that move by a constant-velocity translation are placed at every step's
+time by :func:`place_translating`; the others keep their geometry during the call (the
+host only uses it while no other wall needs re-placing). ``travel_per_step`` bounds how
+far any wall point moves in a step.
 
 :func:`run_steps_split` is the same loop for several threads: each kernel runs over
 ``nchunks`` fixed contiguous ranges in a numba ``prange`` (pair rows store their
