@@ -221,6 +221,7 @@ class Simulation:
         self._carry_engine = None  # the engine view's _old_of_new during a user view
         self._last_sort = None
         self._spare_p = None
+        self._rev_valid = False    # reverse index of the pair list (split path only)
         self._needs_rebuild = True
         self._forces_valid = False
         self.rebuilds = 0
@@ -668,11 +669,11 @@ class Simulation:
             self._par(_nl.pack_rows, ns, tmp, start, new_p["nbr"])
             self._par(_nl.carry_history, ns, start, new_p["nbr"], new_p["hist"],
                       old_p["start"], old_p["nbr"], old_p["hist"], old_of_new, True)
-            _nl.reverse_index(start, new_p["nbr"], new_p["rev_start"], new_p["rev"])
         new_p["act"][:npair] = new_p["hist"][:npair, 7] != 0.0
         new_p["act"][npair:] = False
         self._spare_p = old_p if old_p["nbr"].shape[0] >= cap else None
         self._p = new_p
+        self._rev_valid = False
         # walls
         w = self._w
         wstart = np.zeros(ns + 1, np.int64)
@@ -713,6 +714,14 @@ class Simulation:
             setattr(self, width_attr, int(1.25 * longest) + 1)
 
     # ------------------------------------------------------------------ stepping --
+    def _reverse_index(self):
+        """Build the pair list's reverse index once per list, when a split path needs it
+        (one thread never does)."""
+        if not self._rev_valid:
+            p = self._p
+            _nl.reverse_index(p["start"], p["nbr"], p["rev_start"], p["rev"])
+            self._rev_valid = True
+
     def _compute_forces(self, kick):
         b, s, p, q, w = self._b, self._s, self._p, self._q, self._w
         dt = self.dt
@@ -724,6 +733,7 @@ class Simulation:
                       b["iso"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
                       p["act"], s["acc"], not split)
             if split:
+                self._reverse_index()
                 self._par(_forces.reverse_sums, ns, s["acc"], p["out"], p["act"],
                           p["rev_start"], p["rev"])
             self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"],
@@ -830,6 +840,7 @@ class Simulation:
             return _stepper.run_steps(nsteps, *head, *tail)
         import numba
 
+        self._reverse_index()
         before = numba.get_num_threads()
         numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
         try:
@@ -1028,6 +1039,7 @@ class Simulation:
         self._forces_valid = bool(sc[5])
         self._needs_rebuild = bool(sc[6])
         self._old_of_new = opt["old_of_new"]
+        self._rev_valid = False
         self._perm = None if opt["perm_b"] is None else (opt["perm_b"], opt["perm_s"])
         self._user_view = self._perm is not None
         self._carry_engine = opt["carry_engine"]
