@@ -32,7 +32,7 @@ from numba import njit
 
 from demcal.geometry.kernels import wall_distance
 
-from .contact.kernel import HIST_WIDTH, contact
+from .contact.kernel import contact, reset_history
 from .contact.registry import LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD
 
 ACC_WIDTH = 6   # sacc columns: force on the sphere (3), torque on its body (3)
@@ -123,8 +123,7 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             d2 = dx * dx + dy * dy + dz * dz
             if d2 >= rs * rs:
                 if active[p]:
-                    for k in range(HIST_WIDTH):
-                        hist[p, k] = 0.0
+                    reset_history(hist, p)
                     active[p] = False
                 continue
             bj = sbody[j]
@@ -253,8 +252,7 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             delta = ri - d
             if delta <= 0.0:
                 if wactive[q]:
-                    for k in range(HIST_WIDTH):
-                        whist[q, k] = 0.0
+                    reset_history(whist, q)
                     wactive[q] = False
                 continue
             a = ri - 0.5 * delta

@@ -10,6 +10,7 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from demcal.errors import ConfigError, SimulationError
@@ -194,8 +195,6 @@ class Simulation:
         if threads is None:
             # numba's thread count: the cores, or what NUMBA_NUM_THREADS or a campaign
             # worker (numba.set_num_threads) allows this process
-            import numba
-
             threads = numba.get_num_threads()
         if not (isinstance(threads, int) and not isinstance(threads, bool) and threads >= 1):
             raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
@@ -838,8 +837,6 @@ class Simulation:
                 w["material"], *moves)
         if not self._threaded(self.n_particles):
             return _stepper.run_steps(nsteps, *head, *tail)
-        import numba
-
         self._reverse_index()
         before = numba.get_num_threads()
         numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))

@@ -24,6 +24,7 @@ H_DELTA0 = 3
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def reset_history(hist, h):
+    """Clear contact h's history row (the contact has opened)."""
     for k in range(HIST_WIDTH):
         hist[h, k] = 0.0
 
