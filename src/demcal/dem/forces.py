@@ -26,13 +26,12 @@ include the bodies' rotation about their centres of mass; R* = r_i r_j/(r_i + r_
 the sphere radii (r_i against a wall), m* from the body masses (m_i against a wall).
 """
 
-import math
-
 from numba import njit
 
 from demcal.geometry.kernels import wall_distance
 
-from .contact.kernel import contact, reset_history
+from .contact.kernel import contact, reset_history, store_history
+from .contact.llvm_math import sqrt
 from .contact.registry import LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD
 
 ACC_WIDTH = 6   # sacc columns: force on the sphere (3), torque on its body (3)
@@ -57,10 +56,10 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
     lj = 0.0
     inv_ir = 0.0
     if rolling == ROLLING_CONSTANT or rolling == ROLLING_EPSD:
-        li = math.sqrt(aix * aix + aiy * aiy + aiz * aiz)
+        li = sqrt(aix * aix + aiy * aiy + aiz * aiz)
         inv_ir = 1.0 / (iso_i + mi * li * li)
         if mj > 0.0:
-            lj = math.sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
+            lj = sqrt(ajx * ajx + ajy * ajy + ajz * ajz)
             inv_ir += 1.0 / (iso_j + mj * lj * lj)
     return vrx, vry, vrz, li, lj, inv_ir
 
@@ -128,7 +127,7 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 continue
             bj = sbody[j]
             mj = bmass[bj]
-            d = math.sqrt(d2)
+            d = sqrt(d2)
             inv_d = 1.0 / d
             delta = rs - d
             nx = dx * inv_d
@@ -149,11 +148,12 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             vrx, vry, vrz, li, lj, inv_ir = _relative_motion(
                 rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, wiy, wiz, mi,
                 iso_i, bvel[bj, 0], bvel[bj, 1], bvel[bj, 2], wjx, wjy, wjz, mj, biso[bj])
-            fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz = contact(
+            (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz,
+             h0, h1, h2, h3, h4, h5, h6) = contact(
                 normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
                 nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
                 li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
-            hist[p, 7] = 1.0
+            store_history(hist, p, h0, h1, h2, h3, h4, h5, h6)
             active[p] = True
             fsx += fx
             fsy += fy
@@ -269,11 +269,11 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 rolling, aix, aiy, aiz, ajx, ajy, ajz, bvel[bi, 0], bvel[bi, 1], bvel[bi, 2],
                 wix, wiy, wiz, mi, biso[bi], wvel[w, 0], wvel[w, 1], wvel[w, 2],
                 womega[w, 0], womega[w, 1], womega[w, 2], 0.0, 0.0)
-            fx, fy, fz, tix, tiy, tiz, _, _, _ = contact(
+            fx, fy, fz, tix, tiy, tiz, _, _, _, h0, h1, h2, h3, h4, h5, h6 = contact(
                 normal, damping, tangential, rolling, table, bmat[bi], wmat[w], whist, q,
                 delta, nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, womega[w, 0],
                 womega[w, 1], womega[w, 2], li, 0.0, ri, mi, inv_ir, dt)
-            whist[q, 7] = 1.0
+            store_history(whist, q, h0, h1, h2, h3, h4, h5, h6)
             wactive[q] = True
             sacc[i, 0] += fx
             sacc[i, 1] += fy

@@ -27,10 +27,11 @@ SQRT_5_6 = math.sqrt(5.0 / 6.0)
 def normal_damping(model, beta, zeta, sqkm, vn):
     """Damping force [N] along the normal (positive = repulsive); ``sqkm`` is
     ``sqrt(k m*)`` with the normal slot's stiffness k (0 when k <= 0)."""
+    fd = 0.0
     if model == DAMPING_TSUJI:
-        return 2.0 * SQRT_5_6 * beta * sqkm * vn
-    if model == DAMPING_HYSTERETIC:
-        return 2.0 * zeta * beta * sqkm * vn
-    if model == DAMPING_VISCOUS:
-        return 2.0 * beta * sqkm * vn
-    return 0.0
+        fd = 2.0 * SQRT_5_6 * beta * sqkm * vn
+    elif model == DAMPING_HYSTERETIC:
+        fd = 2.0 * zeta * beta * sqkm * vn
+    elif model == DAMPING_VISCOUS:
+        fd = 2.0 * beta * sqkm * vn
+    return fd

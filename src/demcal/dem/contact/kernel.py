@@ -5,14 +5,13 @@ History row layout (``HIST_WIDTH`` float64 per contact): 0:3 tangential displace
 [N m] (type C), 7 contact flag (1 while touching: a rebuild carries only such rows).
 """
 
-import math
-
 from numba import njit
 
 from demcal.particles.materials import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR,
                                         P_MU_R, P_MU_S, P_SQ_ST_SN, P_XI, P_YMIN, P_ZETA)
 
 from .damping import normal_damping
+from .llvm_math import sqrt
 from .normal import loading_stiffness, normal_force
 from .registry import FASTMATH, NORMAL_HERTZ, NORMAL_HYSTERETIC, TANGENTIAL_MINDLIN
 from .rolling import rolling_torque
@@ -30,6 +29,19 @@ def reset_history(hist, h):
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
+def store_history(hist, h, s0, s1, s2, delta0, m0, m1, m2):
+    """Write contact h's new history (as :func:`contact` returns it); mark it touching."""
+    hist[h, 0] = s0
+    hist[h, 1] = s1
+    hist[h, 2] = s2
+    hist[h, H_DELTA0] = delta0
+    hist[h, 4] = m0
+    hist[h, 5] = m1
+    hist[h, 6] = m2
+    hist[h, 7] = 1.0
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
             nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
             lever_i, lever_j, r_eff, m_eff, inv_ir, dt):
@@ -42,7 +54,8 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     table : float64[nmat, nmat, N_PAIR_PARAMS]
         Material-pair constants (``demcal.particles.materials.pair_table`` columns);
         ``mi``, ``mj`` are the materials of the two sides.
-    hist, h : history array and this contact's row (see the module docstring).
+    hist, h : history array and this contact's row (see the module docstring), read
+        only: the caller stores the new history the kernel returns.
     delta : float
         Overlap [m] > 0. ``n`` is the unit normal pointing from j to i.
     vr : relative velocity of i with respect to j at the contact point [m/s].
@@ -52,11 +65,11 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
 
     Returns
     -------
-    (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz)
-        Contact force on i [N] (j gets the opposite) and the rolling torques [N m].
+    (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz, sx, sy, sz, delta0, mx, my, mz)
+        Contact force on i [N] (j gets the opposite), the rolling torques [N m], and the
+        new history: tangential displacement [m], residual overlap [m], rolling spring
+        torque [N m] (the stored values where the model keeps none).
     """
-    # every constant is read before the history is written (the compiler cannot tell
-    # the arrays apart, so a read after a write would be repeated for every contact)
     e = table[mi, mj, P_E]
     beta = table[mi, mj, P_BETA]
     ymin = table[mi, mj, P_YMIN]
@@ -68,16 +81,14 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     mu_s = table[mi, mj, P_MU_S]
     mu_r = table[mi, mj, P_MU_R]
     eta_r = table[mi, mj, P_ETA_R]
-    delta0 = hist[h, H_DELTA0] if normal == NORMAL_HYSTERETIC else 0.0
+    delta0 = hist[h, H_DELTA0]
     vn = vrx * nx + vry * ny + vrz * nz
     # sqrt(R* delta) is shared by the Hertz spring and the Mindlin tangential spring
     sq = 0.0
     if normal == NORMAL_HERTZ or tangential == TANGENTIAL_MINDLIN:
-        sq = math.sqrt(r_eff * delta)
+        sq = sqrt(r_eff * delta)
     fs, k, d0 = normal_force(normal, delta, delta0, r_eff, sq, estar, ymin, e)
-    if normal == NORMAL_HYSTERETIC:
-        hist[h, H_DELTA0] = d0
-    sqkm = math.sqrt(k * m_eff) if k > 0.0 else 0.0
+    sqkm = sqrt(k * m_eff) if k > 0.0 else 0.0
     fd = normal_damping(damping, beta, zeta, sqkm, vn)
     fn = fs + fd
     if normal == NORMAL_HYSTERETIC and fn < 0.0:
@@ -88,11 +99,13 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     k1 = loading_stiffness(r_eff, ymin)
     kt, ct = tangential_stiffness(tangential, sq, m_eff, gstar, beta, k1, xi,
                                   sqkm if normal == NORMAL_HERTZ else 0.0, sq_st_sn)
-    ftx, fty, ftz = tangential_force(kt, ct, hist, h, nx, ny, nz, vtx, vty, vtz, dt,
-                                     mu_s, fn)
+    ftx, fty, ftz, sx, sy, sz = tangential_force(kt, ct, hist[h, 0], hist[h, 1],
+                                                 hist[h, 2], nx, ny, nz, vtx, vty, vtz,
+                                                 dt, mu_s, fn)
     fpos = fn if fn > 0.0 else 0.0
     kr = k if k > 0.0 else k1
-    tix, tiy, tiz, tjx, tjy, tjz = rolling_torque(
-        rolling, hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
-        lever_i, lever_j, r_eff, mu_r, fpos, kr, eta_r, inv_ir, dt)
-    return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz)
+    tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz = rolling_torque(
+        rolling, hist[h, 4], hist[h, 5], hist[h, 6], nx, ny, nz, wix, wiy, wiz, wjx, wjy,
+        wjz, lever_i, lever_j, r_eff, mu_r, fpos, kr, eta_r, inv_ir, dt)
+    return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz,
+            sx, sy, sz, d0, mx, my, mz)

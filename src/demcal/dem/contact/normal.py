@@ -33,26 +33,37 @@ def hysteretic(delta, delta0, r_eff, ymin, e):
     k2 = k1 / (e * e)
     f1 = k1 * delta
     f2 = k2 * (delta - delta0)
+    # one exit (no early return), so that loops over contacts can be vectorised
     if f1 <= f2:
-        return f1, k1, delta * (1.0 - k1 / k2)
-    if f2 > 0.0:
-        return f2, k2, delta0
-    return 0.0, 0.0, delta0
+        fn = f1
+        k = k1
+        d0 = delta * (1.0 - k1 / k2)
+    elif f2 > 0.0:
+        fn = f2
+        k = k2
+        d0 = delta0
+    else:
+        fn = 0.0
+        k = 0.0
+        d0 = delta0
+    return fn, k, d0
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def normal_force(model, delta, delta0, r_eff, sq, estar, ymin, e):
     """Dispatch on the normal slot; see the module docstring. ``sq`` is
     ``sqrt(R* delta)`` (computed once per contact by the caller when a slot needs it)."""
+    fn = 0.0
+    k = 0.0
+    d0 = delta0
     if model == NORMAL_HERTZ:
         fn, k = hertz(delta, sq, estar)
-        return fn, k, delta0
-    if model == NORMAL_HYSTERETIC:
-        return hysteretic(delta, delta0, r_eff, ymin, e)
-    if model == NORMAL_LINEAR:
+    elif model == NORMAL_HYSTERETIC:
+        fn, k, d0 = hysteretic(delta, delta0, r_eff, ymin, e)
+    elif model == NORMAL_LINEAR:
         k = 5.0 * r_eff * ymin
-        return k * delta, k, delta0
-    return 0.0, 0.0, delta0
+        fn = k * delta
+    return fn, k, d0
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")

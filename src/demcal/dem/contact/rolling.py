@@ -12,96 +12,89 @@
   ``-C_r w_r`` with ``C_r = 2 eta_r sqrt(I_r k_r)`` (Eq. 14-15) while the spring is
   below the cap (none once fully mobilised). ``w_r`` is the relative angular velocity
   projected on the tangent plane (twisting excluded); the spring torque is kept in the
-  tangent plane (``hist[h, 4:7]``).
+  tangent plane (by the caller, ``hist[h, 4:7]``).
 """
-
-import math
 
 from numba import njit
 
+from .llvm_math import sqrt
+from .plane import to_tangent_plane
 from .registry import FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_RELATIVE
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
-def rolling_torque(model, hist, h, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
+def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
                    lever_i, lever_j, r_eff, mu_r, fn, kn, eta_r, inv_ir, dt):
-    """Rolling torques ``(tix, tiy, tiz, tjx, tjy, tjz)``; EPSD updates ``hist[h, 4:7]``."""
+    """Rolling torques on i and j and the new EPSD spring torque, given the stored one
+    ``m``: ``(tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz)``."""
+    # one exit (no early return), so that loops over contacts can be vectorised
+    tix = 0.0
+    tiy = 0.0
+    tiz = 0.0
+    tjx = 0.0
+    tjy = 0.0
+    tjz = 0.0
     if fn <= 0.0 or mu_r <= 0.0:
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    if model == ROLLING_CONSTANT:
-        tix = 0.0
-        tiy = 0.0
-        tiz = 0.0
-        tjx = 0.0
-        tjy = 0.0
-        tjz = 0.0
-        wi = math.sqrt(wix * wix + wiy * wiy + wiz * wiz)
+        pass
+    elif model == ROLLING_CONSTANT:
+        wi = sqrt(wix * wix + wiy * wiy + wiz * wiz)
         if wi > 0.0:
             a = -mu_r * fn * lever_i / wi
             tix = a * wix
             tiy = a * wiy
             tiz = a * wiz
-        wj = math.sqrt(wjx * wjx + wjy * wjy + wjz * wjz)
+        wj = sqrt(wjx * wjx + wjy * wjy + wjz * wjz)
         if wj > 0.0:
             b = -mu_r * fn * lever_j / wj
             tjx = b * wjx
             tjy = b * wjy
             tjz = b * wjz
-        return tix, tiy, tiz, tjx, tjy, tjz
-    wrx = wix - wjx
-    wry = wiy - wjy
-    wrz = wiz - wjz
-    if model == ROLLING_RELATIVE:
-        wr = math.sqrt(wrx * wrx + wry * wry + wrz * wrz)
-        if wr <= 0.0:
-            return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        a = -mu_r * fn * r_eff / wr
-        return a * wrx, a * wry, a * wrz, -a * wrx, -a * wry, -a * wrz
-    if model == ROLLING_EPSD:
+    elif model == ROLLING_RELATIVE:
+        wrx = wix - wjx
+        wry = wiy - wjy
+        wrz = wiz - wjz
+        wr = sqrt(wrx * wrx + wry * wry + wrz * wrz)
+        if not wr <= 0.0:
+            a = -mu_r * fn * r_eff / wr
+            tix = a * wrx
+            tiy = a * wry
+            tiz = a * wrz
+            tjx = -tix
+            tjy = -tiy
+            tjz = -tiz
+    elif model == ROLLING_EPSD:
         # tangential part of the relative angular velocity (no twisting)
+        wrx = wix - wjx
+        wry = wiy - wjy
+        wrz = wiz - wjz
         wn = wrx * nx + wry * ny + wrz * nz
         wrx -= wn * nx
         wry -= wn * ny
         wrz -= wn * nz
-        mx = hist[h, 4]
-        my = hist[h, 5]
-        mz = hist[h, 6]
-        m2 = mx * mx + my * my + mz * mz
-        if m2 > 0.0:
-            mn = mx * nx + my * ny + mz * nz
-            mx -= mn * nx
-            my -= mn * ny
-            mz -= mn * nz
-            t2 = mx * mx + my * my + mz * mz
-            if t2 > 0.0:
-                sc = math.sqrt(m2 / t2)
-                mx *= sc
-                my *= sc
-                mz *= sc
+        mx, my, mz = to_tangent_plane(mx, my, mz, nx, ny, nz)
         kr = 2.25 * kn * mu_r * mu_r * r_eff * r_eff
         mx -= kr * wrx * dt
         my -= kr * wry * dt
         mz -= kr * wrz * dt
         mmax = mu_r * r_eff * fn
         m2 = mx * mx + my * my + mz * mz
-        tx = mx
-        ty = my
-        tz = mz
+        tix = mx
+        tiy = my
+        tiz = mz
         if m2 > mmax * mmax:
-            sc = mmax / math.sqrt(m2)
+            sc = mmax / sqrt(m2)
             mx *= sc
             my *= sc
             mz *= sc
-            tx = mx
-            ty = my
-            tz = mz
+            tix = mx
+            tiy = my
+            tiz = mz
         elif inv_ir > 0.0:
-            cr = 2.0 * eta_r * math.sqrt(kr / inv_ir)
-            tx -= cr * wrx
-            ty -= cr * wry
-            tz -= cr * wrz
-        hist[h, 4] = mx
-        hist[h, 5] = my
-        hist[h, 6] = mz
-        return tx, ty, tz, -tx, -ty, -tz
-    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+            cr = 2.0 * eta_r * sqrt(kr / inv_ir)
+            tix -= cr * wrx
+            tiy -= cr * wry
+            tiz -= cr * wrz
+        tjx = -tix
+        tjy = -tiy
+        tjz = -tiz
+    return tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz

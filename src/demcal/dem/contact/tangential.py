@@ -1,8 +1,8 @@
 """Tangential sub-models with history (the accumulated tangential displacement).
 
-The history vector ``s`` [m] lives in ``hist[h, 0:3]``. Each step it is first rotated
-into the current tangent plane (its normal component removed, its length kept, as in
-LAMMPS ``granular`` and LIGGGHTS), then incremented by ``vt dt``. The force is
+The history vector ``s`` [m] is kept by the caller (``hist[h, 0:3]``). Each step it is
+first rotated into the current tangent plane (its normal component removed, its length
+kept, as in LAMMPS ``granular`` and LIGGGHTS), then incremented by ``vt dt``. The force is
 ``ft = -kt s + c beta sqrt(kt m*) vt`` and, if ``|ft| > mu_s Fn``, it is scaled to the
 Coulomb limit and the spring alone is set to carry it, ``s = -ft / kt`` (as LIGGGHTS'
 ``tangential_history`` drops the damping while sliding). Keeping the damping part in
@@ -20,6 +20,8 @@ import math
 
 from numba import njit
 
+from .llvm_math import sqrt
+from .plane import to_tangent_plane
 from .registry import FASTMATH, TANGENTIAL_LINEAR, TANGENTIAL_MINDLIN
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
@@ -33,63 +35,51 @@ def tangential_stiffness(model, sq, m_eff, gstar, beta, k1, xi, hertz_sqkm, sq_s
     ``sqrt(Sn m*)`` and ``sq_st_sn = sqrt(St/Sn) = sqrt(4 G*/E*)``, so that
     ``sqrt(St m*)`` needs no square root of its own; otherwise ``hertz_sqkm`` is 0.
     """
+    kt = 0.0
+    ct = 0.0
     if model == TANGENTIAL_MINDLIN:
         kt = 8.0 * gstar * sq
         if hertz_sqkm > 0.0:
-            return kt, 2.0 * SQRT_5_6 * beta * hertz_sqkm * sq_st_sn
-        return kt, 2.0 * SQRT_5_6 * beta * math.sqrt(kt * m_eff)
-    if model == TANGENTIAL_LINEAR:
+            ct = 2.0 * SQRT_5_6 * beta * hertz_sqkm * sq_st_sn
+        else:
+            ct = 2.0 * SQRT_5_6 * beta * sqrt(kt * m_eff)
+    elif model == TANGENTIAL_LINEAR:
         kt = xi * k1
-        return kt, 2.0 * beta * math.sqrt(kt * m_eff)
-    return 0.0, 0.0
+        ct = 2.0 * beta * sqrt(kt * m_eff)
+    return kt, ct
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
-def tangential_force(kt, ct, hist, h, nx, ny, nz, vtx, vty, vtz, dt, mu_s, fn):
+def tangential_force(kt, ct, sx, sy, sz, nx, ny, nz, vtx, vty, vtz, dt, mu_s, fn):
     """Tangential force on particle i [N] (spring ``kt``, damping ``ct`` from
-    :func:`tangential_stiffness`); updates ``hist[h, 0:3]``."""
-    if kt <= 0.0:
-        return 0.0, 0.0, 0.0
-    sx = hist[h, 0]
-    sy = hist[h, 1]
-    sz = hist[h, 2]
-    # rotate into the tangent plane, keeping the magnitude
-    s2 = sx * sx + sy * sy + sz * sz
-    if s2 > 0.0:
-        sn = sx * nx + sy * ny + sz * nz
-        sx -= sn * nx
-        sy -= sn * ny
-        sz -= sn * nz
-        t2 = sx * sx + sy * sy + sz * sz
-        if t2 > 0.0:
-            sc = math.sqrt(s2 / t2)
-            sx *= sc
-            sy *= sc
-            sz *= sc
-    sx += vtx * dt
-    sy += vty * dt
-    sz += vtz * dt
-    dx = ct * vtx
-    dy = ct * vty
-    dz = ct * vtz
-    fx = -kt * sx + dx
-    fy = -kt * sy + dy
-    fz = -kt * sz + dz
-    fmax = mu_s * fn
-    if fmax < 0.0:
-        fmax = 0.0
-    f2 = fx * fx + fy * fy + fz * fz
-    if f2 > fmax * fmax:
-        fm = math.sqrt(f2)
-        r = fmax / fm
-        fx *= r
-        fy *= r
-        fz *= r
-        ikt = 1.0 / kt
-        sx = -fx * ikt
-        sy = -fy * ikt
-        sz = -fz * ikt
-    hist[h, 0] = sx
-    hist[h, 1] = sy
-    hist[h, 2] = sz
-    return fx, fy, fz
+    :func:`tangential_stiffness`) and the new spring displacement, given the stored one
+    ``s``: ``(fx, fy, fz, sx, sy, sz)``."""
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    if not kt <= 0.0:
+        sx, sy, sz = to_tangent_plane(sx, sy, sz, nx, ny, nz)
+        sx += vtx * dt
+        sy += vty * dt
+        sz += vtz * dt
+        dx = ct * vtx
+        dy = ct * vty
+        dz = ct * vtz
+        fx = -kt * sx + dx
+        fy = -kt * sy + dy
+        fz = -kt * sz + dz
+        fmax = mu_s * fn
+        if fmax < 0.0:
+            fmax = 0.0
+        f2 = fx * fx + fy * fy + fz * fz
+        if f2 > fmax * fmax:
+            fm = sqrt(f2)
+            r = fmax / fm
+            fx *= r
+            fy *= r
+            fz *= r
+            ikt = 1.0 / kt
+            sx = -fx * ikt
+            sy = -fy * ikt
+            sz = -fz * ikt
+    return fx, fy, fz, sx, sy, sz

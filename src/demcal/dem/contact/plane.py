@@ -1,0 +1,27 @@
+"""Carrying a contact's history vector into the current tangent plane."""
+
+from numba import njit
+
+from .llvm_math import sqrt
+from .registry import FASTMATH
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
+def to_tangent_plane(x, y, z, nx, ny, nz):
+    """The vector ``(x, y, z)`` turned into the plane normal to the unit vector ``n``,
+    keeping its length: its normal component is removed and the rest rescaled (as the
+    tangential history of LAMMPS ``granular`` and LIGGGHTS). A zero vector, or one
+    along ``n``, comes back as it is, or as zero."""
+    v2 = x * x + y * y + z * z
+    if v2 > 0.0:
+        vn = x * nx + y * ny + z * nz
+        x -= vn * nx
+        y -= vn * ny
+        z -= vn * nz
+        t2 = x * x + y * y + z * z
+        if t2 > 0.0:
+            sc = sqrt(v2 / t2)
+            x *= sc
+            y *= sc
+            z *= sc
+    return x, y, z
