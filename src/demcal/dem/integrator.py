@@ -11,11 +11,18 @@ One step of length dt (as in LIGGGHTS ``nve/sphere`` and ``rigid``):
    result does not depend on the number of threads), add gravity and kick again.
 
 Rotation keeps the angular momentum ``L`` in the world frame. A body with equal
-principal moments (a sphere) rotates about ``w = L / I`` exactly. Any other body uses
-the symplectic splitting of the free rigid body of Dullweber, Leimkuhler & McLachlan
-(1997, J. Chem. Phys. 107, 5840): with ``L_b`` in the principal frame, rotations
-about body axes 1, 2, 3, 2, 1 over dt/2, dt/2, dt, dt/2, dt/2; each is exact, keeps
-``|L|`` and the world ``L`` unchanged and the scheme keeps the energy error bounded.
+principal moments (a sphere) rotates about ``w = L / I`` exactly. A symmetric top (two
+equal moments ``I_p``, the third ``I_a`` about its axis ``e``: every two-sphere clump,
+such as the paper's unit) also turns exactly, by the closed form of the free symmetric
+top (Landau & Lifshitz, Mechanics, §33): ``R(t + dt) = exp(dt [L / I_p]) R(t)
+exp(dt W [e_b])`` with ``W = (1/I_a - 1/I_p) L.e``, constant, i.e. a precession about
+``L`` at ``|L| / I_p`` and a spin about its own axis at ``W``. Any other body uses the
+symplectic splitting of the free rigid body of Dullweber, Leimkuhler & McLachlan (1997,
+J. Chem. Phys. 107, 5840): with ``L_b`` in the principal frame, rotations about body
+axes 1, 2, 3, 2, 1 over dt/2, dt/2, dt, dt/2, dt/2; each is exact, keeps ``|L|`` and
+the world ``L`` unchanged and the scheme keeps the energy error bounded (second order;
+the tests check it against the symmetric top's closed form). The moments must be
+exactly equal for the closed form; templates built along a symmetry axis give that.
 Quaternions are (w, x, y, z) and map body to world. The orientation of a
 single-sphere particle does not affect its motion and is not integrated (it stays as
 inserted); its angular velocity is always ``L / I``.
@@ -84,27 +91,80 @@ def _axis_rotation(k, phi, q0, q1, q2, q3, l0, l1, l2):
 
 
 @njit(cache=True, error_model="numpy")
+def symmetry_axis(i0, i1, i2):
+    """The principal axis a body is symmetric about: -1 if its three principal moments
+    differ, 3 if all are equal (isotropic), else the axis (0, 1, 2) whose moment is the
+    odd one out (the other two are exactly equal)."""
+    if i0 == i1:
+        return 3 if i1 == i2 else 2
+    if i1 == i2:
+        return 0
+    if i0 == i2:
+        return 1
+    return -1
+
+
+@njit(cache=True, error_model="numpy")
+def _body_axis(q0, q1, q2, q3, k):
+    """World direction of principal axis k (column k of R(q))."""
+    if k == 0:
+        return (1.0 - 2.0 * (q2 * q2 + q3 * q3), 2.0 * (q1 * q2 + q0 * q3),
+                2.0 * (q1 * q3 - q0 * q2))
+    if k == 1:
+        return (2.0 * (q1 * q2 - q0 * q3), 1.0 - 2.0 * (q1 * q1 + q3 * q3),
+                2.0 * (q2 * q3 + q0 * q1))
+    return (2.0 * (q1 * q3 + q0 * q2), 2.0 * (q2 * q3 - q0 * q1),
+            1.0 - 2.0 * (q1 * q1 + q2 * q2))
+
+
+@njit(cache=True, error_model="numpy")
 def angular_velocity(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     """World angular velocity w = R diag(1/I) R^T L."""
-    if i0 == i1 and i1 == i2:
+    k = symmetry_axis(i0, i1, i2)
+    if k == 3:
         return lx / i0, ly / i0, lz / i0
+    if k >= 0:
+        # symmetric top: w = L / I_perp + (1/I_axis - 1/I_perp) (L . e) e
+        ia = i0 if k == 0 else (i1 if k == 1 else i2)
+        ip = i1 if k == 0 else i0
+        ex, ey, ez = _body_axis(q0, q1, q2, q3, k)
+        c = (1.0 / ia - 1.0 / ip) * (lx * ex + ly * ey + lz * ez)
+        return lx / ip + c * ex, ly / ip + c * ey, lz / ip + c * ez
     b0, b1, b2 = quat_rotate_inv(q0, q1, q2, q3, lx, ly, lz)
     return quat_rotate(q0, q1, q2, q3, b0 / i0, b1 / i1, b2 / i2)
 
 
 @njit(cache=True, error_model="numpy")
+def _world_rotation(h, wx, wy, wz, q0, q1, q2, q3):
+    """q <- exp(h w / 2) (x) q: rotation by the angle |w| h about w, in the world frame."""
+    w = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if w == 0.0:
+        return q0, q1, q2, q3
+    ca, sa = cos_sin(0.5 * w * h)
+    s = sa / w
+    return quat_mul(ca, s * wx, s * wy, s * wz, q0, q1, q2, q3)
+
+
+@njit(cache=True, error_model="numpy")
 def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     """Orientation after a torque-free rotation over dt (see module docstring)."""
-    if i0 == i1 and i1 == i2:
-        wx = lx / i0
-        wy = ly / i0
-        wz = lz / i0
-        w = math.sqrt(wx * wx + wy * wy + wz * wz)
-        if w == 0.0:
-            return q0, q1, q2, q3
-        ca, sa = cos_sin(0.5 * w * dt)
-        s = sa / w
-        q0, q1, q2, q3 = quat_mul(ca, s * wx, s * wy, s * wz, q0, q1, q2, q3)
+    k = symmetry_axis(i0, i1, i2)
+    if k == 3:
+        q0, q1, q2, q3 = _world_rotation(dt, lx / i0, ly / i0, lz / i0, q0, q1, q2, q3)
+    elif k >= 0:
+        # symmetric top, exact: R(t) = exp(t [L / I_perp]) R(0) exp(t W [e_k]) with
+        # W = (1/I_axis - 1/I_perp) (L . e), L . e constant (module docstring)
+        ia = i0 if k == 0 else (i1 if k == 1 else i2)
+        ip = i1 if k == 0 else i0
+        ex, ey, ez = _body_axis(q0, q1, q2, q3, k)
+        c, s = cos_sin(0.5 * dt * (1.0 / ia - 1.0 / ip) * (lx * ex + ly * ey + lz * ez))
+        if k == 0:
+            q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, s, 0.0, 0.0)
+        elif k == 1:
+            q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, 0.0, s, 0.0)
+        else:
+            q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, 0.0, 0.0, s)
+        q0, q1, q2, q3 = _world_rotation(dt, lx / ip, ly / ip, lz / ip, q0, q1, q2, q3)
     else:
         l0, l1, l2 = quat_rotate_inv(q0, q1, q2, q3, lx, ly, lz)
         h = 0.5 * dt
