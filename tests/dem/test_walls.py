@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from demcal.dem import Simulation
-from demcal.geometry import Plane, Rect, Rotation, Translation, WallSet
+from demcal.geometry import (Disk, FunctionMotion, Plane, Rect, Rotation, Translation,
+                             WallSet)
 from demcal.particles.materials import Interaction
 
 from dem_helpers import RADIUS, SOFT, SOFT_WALL, sphere_mass
@@ -45,6 +46,48 @@ def test_translating_floor_carries_particle(backend):
     assert sim.state.positions[0, 2] - z_floor == pytest.approx(RADIUS, rel=0.01)
     force, _ = sim.wall_forces()["lift"]
     assert -force[2] == pytest.approx(sim.state.masses[0] * G, rel=0.01)
+
+
+def test_motion_set_between_runs_is_picked_up(backend):
+    # a static floor starts a lift after the sphere has settled, then drops away (a
+    # finite disk: only walls near a sphere are in its contact list)
+    u = 0.05
+    walls = WallSet([Disk(centre=(0, 0, 0), normal=(0, 0, 1), radius=0.05, material=1,
+                          name="lift")])
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3), walls=walls,
+                     backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, RADIUS]])
+    sim.run(duration=0.05)
+    t0 = sim.time
+    walls.set_motion("lift", Translation(velocity=(0, 0, u), start=t0, stop=t0 + 0.1))
+    sim.run(duration=0.1)
+    # carried up with the floor, resting on it; the floor placed at the run's end
+    assert sim.state.velocities[0, 2] == pytest.approx(u, rel=0.01)
+    assert sim.state.positions[0, 2] - u * 0.1 == pytest.approx(RADIUS, rel=0.01)
+    assert walls.origin[0, 2] == pytest.approx(u * (sim.time - t0), rel=1e-9)
+    # the floor jumps down (to -t) and keeps sinking at 1 m/s: the sphere falls freely
+    walls.set_motion("lift", Translation(velocity=(0, 0, -1.0), start=0.0, stop=1.0))
+    z1, v1, t1 = sim.state.positions[0, 2], sim.state.velocities[0, 2], sim.time
+    sim.run(duration=0.02)
+    assert sim.state.velocities[0, 2] == pytest.approx(v1 - G * (sim.time - t1), rel=1e-9)
+    assert sim.state.positions[0, 2] < z1
+    assert abs(sim.wall_forces()["lift"][0][2]) == 0.0
+    # the floor jumps up to touch the sphere, from out of the contact lists' reach: the
+    # contact is there at the very next step, and the sphere comes to rest on it
+    z_floor = sim.state.positions[0, 2] - 0.999 * RADIUS
+    walls.set_motion("lift", FunctionMotion(function=lambda t: (0.0, 0.0, z_floor)))
+    sim.run(steps=1)
+    assert sim.wall_forces()["lift"][0][2] < 0.0
+    sim.run(duration=0.2)
+    assert sim.state.positions[0, 2] - z_floor == pytest.approx(RADIUS, rel=0.01)
+    assert abs(sim.state.velocities[0, 2]) < 1e-3
+
+
+def test_set_motion_names_the_walls_when_the_name_is_unknown():
+    from demcal.errors import ConfigError
+    walls = WallSet([Plane(point=(0, 0, 0), normal=(0, 0, 1), name="floor")])
+    with pytest.raises(ConfigError, match="floor"):
+        walls.set_motion("lid", Translation(velocity=(0, 0, 1.0)))
 
 
 def test_rotating_plate_moves_particle_with_its_surface(backend):

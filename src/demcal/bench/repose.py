@@ -294,7 +294,7 @@ class ReposeCylinder(C.BenchExperiment):
         ])
 
     def _run(self, s, seed, out_dir, vtk, progress):
-        from demcal.geometry import Cylinder, Disk, WallSet
+        from demcal.geometry import Cylinder, Disk, Translation, WallSet
         from demcal.particles.insertion import CylinderRegion, insert
 
         k, tpl, sizes, n, r_plate, b_max = _platform(s)
@@ -336,16 +336,11 @@ class ReposeCylinder(C.BenchExperiment):
         v = float(s["geometry.lift_speed"])
         t_lift = sim.time
         t_clear = sim.time + (top + b_max) / v
-        lift_steps = max(1, int(round(2e-4 / sim.dt)))  # move the cylinder every ~0.2 ms
-
-        def lift_each():
-            motion.place((0.0, 0.0, v * (sim.time - t_lift)), (0.0, 0.0, v))
-            if sim.step_count % (lift_steps * 100) < lift_steps:
-                each()
-
-        motion.place((0.0, 0.0, 0.0), (0.0, 0.0, v))
-        C.run_until(sim, lift_steps * sim.dt, lambda: sim.time >= t_clear, max_time, lift_each)
-        motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))
+        # a steady lift, placed at every step by the engine's compiled loop
+        walls.set_motion("cylinder", Translation(velocity=(0.0, 0.0, v), start=t_lift, stop=t_clear))
+        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, each)
+        motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))  # then out of the way
+        walls.set_motion("cylinder", motion)
         settle = C.Settle(sim, float(s["time.rest_speed"]))
         if not C.run_until(sim, 0.02, settle, max_time, each):
             raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "

@@ -256,6 +256,7 @@ class Simulation:
         if w is None:
             self._w = _empty_walls()
             self._walls_moving = False
+            self._walls_version = 0
             self.wall_names = []
             return
         if w.moving:
@@ -269,6 +270,7 @@ class Simulation:
                        material=np.ascontiguousarray(w.material, dtype=np.int64),
                        group=np.ascontiguousarray(w.group, dtype=np.int64))
         self._walls_moving = bool(w.moving)
+        self._walls_version = getattr(w, "version", 0)
         self.wall_names = list(getattr(w, "names", []))
 
     # ------------------------------------------------------------------ particles --
@@ -787,6 +789,7 @@ class Simulation:
                 if self._walls_moving:
                     self.walls.update(self.time)
             return
+        self._sync_walls()
         self._prepare()
         dt = self.dt
         half_skin = 0.5 * self.skin
@@ -870,6 +873,19 @@ class Simulation:
         w.update(self.time)
         for key in ("params", "velocity", "omega", "origin", "aabb"):
             self._w[key][...] = getattr(w, key)
+
+    def _sync_walls(self):
+        """Pick up a wall set changed since the last run (``WallSet.set_motion``): copy
+        its rows into the engine, rebuild the lists (a wall may have jumped) and
+        re-evaluate the forces."""
+        w = self.walls
+        if w is None or getattr(w, "version", 0) == self._walls_version:
+            return
+        self._walls_version = w.version
+        self._walls_moving = bool(w.moving)
+        self._place_walls()
+        self._needs_rebuild = True
+        self._forces_valid = False
 
     def _move_walls(self, dt):
         self._place_walls()

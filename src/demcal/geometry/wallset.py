@@ -88,6 +88,8 @@ class WallSet:
         bounds = np.searchsorted(self.group, np.arange(len(walls) + 1))
         self._slices = [slice(int(bounds[g]), int(bounds[g + 1])) for g in range(len(walls))]
         self.moving: bool = any(w.motion.moving for w in walls)
+        #: bumped by :meth:`set_motion`, so that a simulation notices the change
+        self.version: int = 0
         self.time = None
         self.update(t, force=True)
 
@@ -137,24 +139,49 @@ class WallSet:
                 f"no wall named {name!r}; the walls are {', '.join(self.names) or '(none)'}."
             ) from None
 
+    def set_motion(self, name: str, motion) -> None:
+        """Give the wall called ``name`` a new motion from now on: a
+        :class:`~demcal.geometry.motion.Motion`, or None to hold it at its reference
+        position. A motion applies to the wall's reference position, as when the wall
+        was built, and the wall is placed by it at once.
+
+        A simulation using this wall set picks the change up when it next runs: it
+        copies the walls and rebuilds its contact lists, because the wall may have jumped.
+        A constant-velocity :class:`~demcal.geometry.motion.Translation` is then placed
+        inside the engine's compiled loop at every step (exact and fast), unlike a motion
+        driven from Python between calls.
+        """
+        from demcal.geometry.motion import as_motion
+
+        self.rows_of(name)  # the error that lists the walls, if there is none so called
+        g = self.names.index(name)
+        self.walls[g].motion = as_motion(motion)
+        self.moving = self.moving or self.walls[g].motion.moving
+        self._place(g, 0.0 if self.time is None else self.time)
+        self.version += 1
+
+    def _place(self, g: int, t: float) -> None:
+        """Put wall group g where its motion has it at time ``t``."""
+        w = self.walls[g]
+        s = self._slices[g]
+        if s.stop == s.start:
+            return
+        rot, trans = w.motion.transform(t)
+        omega, v0 = w.motion.twist(t)
+        kinds = self.kind[s]
+        self.params[s] = transform_rows(kinds, self._ref_params[s], rot, trans)
+        origin = self._ref_origin[s] @ rot.T + trans
+        self.origin[s] = origin
+        self.omega[s] = omega
+        self.velocity[s] = v0 + np.cross(omega, origin)
+        self.aabb[s] = aabb_rows(kinds, self.params[s])
+
     def update(self, t: float, force: bool = False) -> None:
         """Move every moving wall to time ``t`` [s]: rewrites ``params``, ``velocity``,
         ``omega``, ``origin`` and ``aabb`` in place (static walls are left alone)."""
         for g, w in enumerate(self.walls):
-            if not (w.motion.moving or force):
-                continue
-            s = self._slices[g]
-            if s.stop == s.start:
-                continue
-            rot, trans = w.motion.transform(t)
-            omega, v0 = w.motion.twist(t)
-            kinds = self.kind[s]
-            self.params[s] = transform_rows(kinds, self._ref_params[s], rot, trans)
-            origin = self._ref_origin[s] @ rot.T + trans
-            self.origin[s] = origin
-            self.omega[s] = omega
-            self.velocity[s] = v0 + np.cross(omega, origin)
-            self.aabb[s] = aabb_rows(kinds, self.params[s])
+            if w.motion.moving or force:
+                self._place(g, t)
         self.time = t
 
     def sum_by_group(self, values: np.ndarray) -> np.ndarray:
