@@ -118,18 +118,27 @@ def _body_axis(q0, q1, q2, q3, k):
 
 
 @njit(cache=True, error_model="numpy")
+def _top(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2, k):
+    """A symmetric top about principal axis k: its perpendicular moment ``I_p``,
+    ``1/I_a - 1/I_p``, ``L.e`` (its spin rate about its own axis is their product, W)
+    and the axis ``e`` in the world frame."""
+    ia = i0 if k == 0 else (i1 if k == 1 else i2)
+    ip = i1 if k == 0 else i0
+    ex, ey, ez = _body_axis(q0, q1, q2, q3, k)
+    return ip, 1.0 / ia - 1.0 / ip, lx * ex + ly * ey + lz * ez, ex, ey, ez
+
+
+@njit(cache=True, error_model="numpy")
 def angular_velocity(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     """World angular velocity w = R diag(1/I) R^T L."""
     k = symmetry_axis(i0, i1, i2)
     if k == 3:
         return lx / i0, ly / i0, lz / i0
     if k >= 0:
-        # symmetric top: w = L / I_perp + (1/I_axis - 1/I_perp) (L . e) e
-        ia = i0 if k == 0 else (i1 if k == 1 else i2)
-        ip = i1 if k == 0 else i0
-        ex, ey, ez = _body_axis(q0, q1, q2, q3, k)
-        c = (1.0 / ia - 1.0 / ip) * (lx * ex + ly * ey + lz * ez)
-        return lx / ip + c * ex, ly / ip + c * ey, lz / ip + c * ez
+        # symmetric top: w = L / I_p + W e
+        ip, dj, le, ex, ey, ez = _top(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2, k)
+        w = dj * le
+        return lx / ip + w * ex, ly / ip + w * ey, lz / ip + w * ez
     b0, b1, b2 = quat_rotate_inv(q0, q1, q2, q3, lx, ly, lz)
     return quat_rotate(q0, q1, q2, q3, b0 / i0, b1 / i1, b2 / i2)
 
@@ -152,12 +161,10 @@ def free_rotation(dt, q0, q1, q2, q3, lx, ly, lz, i0, i1, i2):
     if k == 3:
         q0, q1, q2, q3 = _world_rotation(dt, lx / i0, ly / i0, lz / i0, q0, q1, q2, q3)
     elif k >= 0:
-        # symmetric top, exact: R(t) = exp(t [L / I_perp]) R(0) exp(t W [e_k]) with
-        # W = (1/I_axis - 1/I_perp) (L . e), L . e constant (module docstring)
-        ia = i0 if k == 0 else (i1 if k == 1 else i2)
-        ip = i1 if k == 0 else i0
-        ex, ey, ez = _body_axis(q0, q1, q2, q3, k)
-        c, s = cos_sin(0.5 * dt * (1.0 / ia - 1.0 / ip) * (lx * ex + ly * ey + lz * ez))
+        # symmetric top, exact: R(t) = exp(t [L / I_p]) R(0) exp(t W [e_k]), W constant
+        # (module docstring)
+        ip, dj, le, _, _, _ = _top(q0, q1, q2, q3, lx, ly, lz, i0, i1, i2, k)
+        c, s = cos_sin(0.5 * dt * dj * le)
         if k == 0:
             q0, q1, q2, q3 = quat_mul(q0, q1, q2, q3, c, s, 0.0, 0.0)
         elif k == 1:
