@@ -424,14 +424,15 @@ def run_until(sim, chunk: float, stop: Callable[[], bool], max_time: float,
 
 
 class DrivenTranslation(Motion):
-    """A wall translation that the experiment moves in small steps while it runs.
+    """A wall the experiment puts somewhere by hand while it runs (the incline's
+    container and the lifted cylinder are moved out of the way this way).
 
     The wall sits at ``offset`` and reports ``velocity`` to the contacts (the relative
     velocity of a contact uses it). :meth:`place` moves it; the wall set re-evaluates the
     wall only after a move (``moving`` is true until the next :meth:`transform`), so
-    between moves a "moving" wall costs nothing. Moving it every few steps by
-    ``velocity x elapsed time`` approximates a continuous motion to within that
-    displacement (micrometres here).
+    between moves a "moving" wall costs nothing. A steady motion is better given as a
+    :class:`~demcal.geometry.motion.Translation` (``WallSet.set_motion``), which the
+    engine places at every step inside its compiled loop.
     """
 
     def __init__(self):
