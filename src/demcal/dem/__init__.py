@@ -42,8 +42,10 @@ Example
 """
 
 from ._cache import guard as _guard
+from ._cache import prefer_openmp as _prefer_openmp
 
 _guard()
+_prefer_openmp()
 
 from .contact.registry import ContactModel  # noqa: E402
 from .simulation import Simulation, State

@@ -10,12 +10,14 @@ identical for any number of threads):
 * ``sacc[i]`` (per sphere i): the force on i and the torque on body(i) about its centre
   of mass: first the reactions of the slots where i is the j side (in row order), then
   row i's own contacts (summed in row order, added as one number), then i's wall
-  contacts. With one thread :func:`pair_forces` scatters the reactions as it goes; with
-  several, each row stores them in ``pair_out`` and :func:`reverse_sums` adds them per
-  sphere through the reverse index, which gives the same numbers.
-  :func:`wall_forces` adds the walls; ``integrator.gather_kick`` sums per body.
+  contacts. :func:`pair_forces` scatters each reaction as it goes. When the spheres are
+  split into chunks between threads, a slot whose j lies in a later chunk is evaluated
+  twice, by its row's chunk and, as a *halo slot*, by j's chunk before its own rows,
+  which keeps that order; its new history waits in a small buffer until
+  :func:`commit_deferred`. :func:`wall_forces` adds the walls;
+  ``integrator.gather_kick`` sums per body.
 * ``pair_out[p]`` for an active pair slot p = (i, j): the force on i (j gets the
-  opposite) and, on the split path, the torque on body(j).
+  opposite).
 * ``wall_out[q]`` for an active wall slot: the force on the body and the torque on the
   wall about its origin (for :func:`wall_totals`).
 
@@ -30,12 +32,13 @@ from numba import njit
 
 from demcal.geometry.kernels import wall_distance
 
-from .contact.kernel import contact, reset_history, store_history
+from .contact.kernel import HIST_WIDTH, contact, reset_history, store_history
 from .contact.llvm_math import sqrt
 from .contact.registry import LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD
 
-ACC_WIDTH = 6   # sacc columns: force on the sphere (3), torque on its body (3)
-OUT_WIDTH = 6   # pair_out / wall_out columns: force on i (3), torque on the other side (3)
+ACC_WIDTH = 6        # sacc columns: force on the sphere (3), torque on its body (3)
+PAIR_OUT_WIDTH = 3   # pair_out columns: force on i
+OUT_WIDTH = 6        # wall_out columns: force on the sphere (3), torque on the wall (3)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -66,25 +69,39 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
 def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                biso, bmat, row_start, nbr, hist, pair_out, active, sacc, scatter, lo, hi):
-    """Pair contacts of rows [lo, hi).
+                biso, bmat, row_start, nbr, hist, pair_out, active, sacc,
+                halo_row, halo_slots, halo_slot, r0, r1, deferred, k0, lo, hi):
+    """Pair contacts acting on spheres [lo, hi) (one chunk of a split; [0, n) unsplit).
 
-    ``scatter`` false (rows split between threads): ``sacc[i]`` is set to row i's own
-    sums and each active slot stores the force on i and the torque on body(j) in
-    ``pair_out``, for :func:`reverse_sums`. ``scatter`` true (one thread, all rows):
-    the reaction goes straight to ``sacc[j]`` (zeroed here first), only the force is
-    stored, and the sums come out bitwise the same as the split path's.
+    ``sacc[lo:hi]`` is set here: first the halo rows ``r0 <= r < r1`` (rows of earlier
+    chunks, restricted to their slots ``halo_slot[halo_slots[r]:halo_slots[r + 1]]``
+    whose j side is in this chunk) give those spheres their reactions, then rows
+    [lo, hi) add their own sums and scatter their reactions within the chunk. A slot
+    whose j side is in a later chunk is evaluated here and again, from the same inputs
+    and by this same compiled loop, as a halo slot of that chunk; its new history goes
+    to ``deferred[k]`` (k counting such slots from ``k0`` in slot order) for
+    :func:`commit_deferred`, so that ``hist`` holds the step's old values until every
+    chunk has read them. ``pair_out[p]`` gets the force on i of each active slot.
     ``biso[b]`` is the mean principal moment of inertia of body b (rolling inertia).
     """
     normal = models[0]
     damping = models[1]
     tangential = models[2]
     rolling = models[3]
-    if scatter:
-        for i in range(lo, hi):
-            for k in range(ACC_WIDTH):
-                sacc[i, k] = 0.0
     for i in range(lo, hi):
+        for k in range(ACC_WIDTH):
+            sacc[i, k] = 0.0
+    k = k0
+    for r in range(r0, r1 + hi - lo):
+        halo = r < r1
+        if halo:
+            i = halo_row[r]
+            t0 = halo_slots[r]
+            t1 = halo_slots[r + 1]
+        else:
+            i = lo + (r - r1)
+            t0 = row_start[i]
+            t1 = row_start[i + 1]
         bi = sbody[i]
         ri = srad[i]
         xi = spos[i, 0]
@@ -109,8 +126,10 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
         tsx = 0.0
         tsy = 0.0
         tsz = 0.0
-        for p in range(row_start[i], row_start[i + 1]):
+        for t in range(t0, t1):
+            p = halo_slot[t] if halo else t
             j = nbr[p]
+            here = j < hi   # the j side is in this chunk (halo slots always are)
             rj = srad[j]
             xj = spos[j, 0]
             yj = spos[j, 1]
@@ -121,9 +140,13 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             rs = ri + rj
             d2 = dx * dx + dy * dy + dz * dz
             if d2 >= rs * rs:
-                if active[p]:
-                    reset_history(hist, p)
-                    active[p] = False
+                if not halo:
+                    if not here:
+                        reset_history(deferred, k)
+                        k += 1
+                    elif active[p]:
+                        reset_history(hist, p)
+                        active[p] = False
                 continue
             bj = sbody[j]
             mj = bmass[bj]
@@ -153,74 +176,49 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
                 nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
                 li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
-            store_history(hist, p, h0, h1, h2, h3, h4, h5, h6)
-            active[p] = True
             fsx += fx
             fsy += fy
             fsz += fz
             tsx += aiy * fz - aiz * fy + tix
             tsy += aiz * fx - aix * fz + tiy
             tsz += aix * fy - aiy * fx + tiz
-            pair_out[p, 0] = fx
-            pair_out[p, 1] = fy
-            pair_out[p, 2] = fz
-            tx = -(ajy * fz - ajz * fy) + tjx
-            ty = -(ajz * fx - ajx * fz) + tjy
-            tz = -(ajx * fy - ajy * fx) + tjz
-            if scatter:
+            if not halo:
+                if here:
+                    store_history(hist, p, h0, h1, h2, h3, h4, h5, h6)
+                    active[p] = True
+                else:
+                    store_history(deferred, k, h0, h1, h2, h3, h4, h5, h6)
+                    k += 1
+                pair_out[p, 0] = fx
+                pair_out[p, 1] = fy
+                pair_out[p, 2] = fz
+            if here:
                 sacc[j, 0] -= fx
                 sacc[j, 1] -= fy
                 sacc[j, 2] -= fz
-                sacc[j, 3] += tx
-                sacc[j, 4] += ty
-                sacc[j, 5] += tz
-            else:
-                pair_out[p, 3] = tx
-                pair_out[p, 4] = ty
-                pair_out[p, 5] = tz
-        if scatter:
+                sacc[j, 3] += -(ajy * fz - ajz * fy) + tjx
+                sacc[j, 4] += -(ajz * fx - ajx * fz) + tjy
+                sacc[j, 5] += -(ajx * fy - ajy * fx) + tjz
+        if not halo:
             sacc[i, 0] += fsx
             sacc[i, 1] += fsy
             sacc[i, 2] += fsz
             sacc[i, 3] += tsx
             sacc[i, 4] += tsy
             sacc[i, 5] += tsz
-        else:
-            sacc[i, 0] = fsx
-            sacc[i, 1] = fsy
-            sacc[i, 2] = fsz
-            sacc[i, 3] = tsx
-            sacc[i, 4] = tsy
-            sacc[i, 5] = tsz
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def reverse_sums(sacc, pair_out, active, rev_start, rev_pair, lo, hi):
-    """After a split :func:`pair_forces`: add to each sphere j of [lo, hi) the reactions
-    of the slots where it is the j side, in row order, in front of its own row sum
-    (the order in which the scatter path adds them)."""
-    for j in range(lo, hi):
-        fx = 0.0
-        fy = 0.0
-        fz = 0.0
-        tx = 0.0
-        ty = 0.0
-        tz = 0.0
-        for q in range(rev_start[j], rev_start[j + 1]):
-            p = rev_pair[q]
-            if active[p]:
-                fx -= pair_out[p, 0]
-                fy -= pair_out[p, 1]
-                fz -= pair_out[p, 2]
-                tx += pair_out[p, 3]
-                ty += pair_out[p, 4]
-                tz += pair_out[p, 5]
-        sacc[j, 0] = fx + sacc[j, 0]
-        sacc[j, 1] = fy + sacc[j, 1]
-        sacc[j, 2] = fz + sacc[j, 2]
-        sacc[j, 3] = tx + sacc[j, 3]
-        sacc[j, 4] = ty + sacc[j, 4]
-        sacc[j, 5] = tz + sacc[j, 5]
+def commit_deferred(hist, active, deferred, halo_slot, halo_deferred, t0, t1):
+    """After every chunk's :func:`pair_forces`: store the new history of the halo slots
+    ``t0 <= t < t1`` (slot ``halo_slot[t]``, written to ``deferred[halo_deferred[t]]``
+    by the chunk that owns its row) and mark them touching or open."""
+    for t in range(t0, t1):
+        p = halo_slot[t]
+        k = halo_deferred[t]
+        for c in range(HIST_WIDTH):
+            hist[p, c] = deferred[k, c]
+        active[p] = deferred[k, 7] != 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)

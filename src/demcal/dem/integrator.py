@@ -259,7 +259,7 @@ def drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binert
 def gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
                 binertia, bfixed, bstart, sacc, kick, lo, hi):
     """Sum the contact forces and torques of each body's spheres (``sacc``, complete
-    after ``forces.pair_forces``, ``forces.reverse_sums`` and ``forces.wall_forces``) in
+    after ``forces.pair_forces``, ``forces.commit_deferred`` and ``forces.wall_forces``) in
     sphere order, add gravity, half kick (if ``kick``)."""
     h = 0.5 * dt
     for b in range(lo, hi):

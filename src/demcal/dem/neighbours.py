@@ -189,22 +189,74 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
 
 
 @njit(cache=True, error_model="numpy")
-def reverse_index(row_start, nbr, rev_start, rev_pair):
-    """Transpose of the half list: for each sphere j, the pair slots where it is j."""
+def halo_index(row_start, nbr, bounds):
+    """How the half list crosses the chunks ``[bounds[c], bounds[c + 1])`` of a split.
+
+    A slot whose two spheres lie in different chunks (j in a later chunk, as j > i) is
+    a *halo slot* of j's chunk, which evaluates it again for j's reaction
+    (``forces.pair_forces``). Returns, with halo slots numbered in slot order within
+    each target chunk:
+
+    * ``halo_rows[c]:halo_rows[c + 1]``: chunk c's halo rows (ascending row numbers);
+    * ``halo_row[r]``: the row of halo row r, its slots
+      ``halo_slot[halo_slots[r]:halo_slots[r + 1]]`` (ascending);
+    * ``halo_deferred[t]``: where the row's owner leaves slot ``halo_slot[t]``'s new
+      history: all halo slots in slot order, chunk c's rows from ``deferred_start[c]``.
+    """
     ns = row_start.shape[0] - 1
-    for j in range(ns + 1):
-        rev_start[j] = 0
-    npair = row_start[ns]
-    for p in range(npair):
-        rev_start[nbr[p] + 1] += 1
-    for j in range(ns):
-        rev_start[j + 1] += rev_start[j]
-    cursor = rev_start[:-1].copy()
+    nch = bounds.shape[0] - 1
+    chunk = np.empty(ns, np.int64)
+    for c in range(nch):
+        for i in range(bounds[c], bounds[c + 1]):
+            chunk[i] = c
+    deferred_start = np.zeros(nch + 1, np.int64)
+    target_start = np.zeros(nch + 1, np.int64)
     for i in range(ns):
+        ci = chunk[i]
         for p in range(row_start[i], row_start[i + 1]):
-            j = nbr[p]
-            rev_pair[cursor[j]] = p
-            cursor[j] += 1
+            cj = chunk[nbr[p]]
+            if cj != ci:
+                deferred_start[ci + 1] += 1
+                target_start[cj + 1] += 1
+    for c in range(nch):
+        deferred_start[c + 1] += deferred_start[c]
+        target_start[c + 1] += target_start[c]
+    nx = target_start[nch]
+    halo_slot = np.empty(nx, np.int64)
+    slot_row = np.empty(nx, np.int64)
+    halo_deferred = np.empty(nx, np.int64)
+    cursor = target_start[:-1].copy()
+    k = 0
+    for i in range(ns):
+        ci = chunk[i]
+        for p in range(row_start[i], row_start[i + 1]):
+            cj = chunk[nbr[p]]
+            if cj != ci:
+                t = cursor[cj]
+                halo_slot[t] = p
+                slot_row[t] = i
+                halo_deferred[t] = k
+                cursor[cj] += 1
+                k += 1
+    nrows = 0
+    for c in range(nch):
+        for t in range(target_start[c], target_start[c + 1]):
+            if t == target_start[c] or slot_row[t] != slot_row[t - 1]:
+                nrows += 1
+    halo_rows = np.zeros(nch + 1, np.int64)
+    halo_row = np.empty(nrows, np.int64)
+    halo_slots = np.empty(nrows + 1, np.int64)
+    r = 0
+    for c in range(nch):
+        halo_rows[c] = r
+        for t in range(target_start[c], target_start[c + 1]):
+            if t == target_start[c] or slot_row[t] != slot_row[t - 1]:
+                halo_row[r] = slot_row[t]
+                halo_slots[r] = t
+                r += 1
+    halo_rows[nch] = r
+    halo_slots[nrows] = nx
+    return halo_rows, halo_row, halo_slots, halo_slot, halo_deferred, deferred_start
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -24,6 +24,9 @@ from . import timestep as _ts
 from .contact.kernel import HIST_WIDTH
 from .contact.registry import ContactModel
 
+_NO_HALO = np.zeros(1, np.int64)                # an unsplit pair loop's empty halo index
+_NO_DEFERRED = np.zeros((0, HIST_WIDTH))
+
 CHECKPOINT_VERSION = 3
 
 #: Compute backends present. The kernels are written so the same source can be compiled
@@ -220,7 +223,7 @@ class Simulation:
         self._carry_engine = None  # the engine view's _old_of_new during a user view
         self._last_sort = None
         self._spare_p = None
-        self._rev_valid = False    # reverse index of the pair list (split path only)
+        self._halo = None          # chunks of a split and their halo index (per list)
         self._needs_rebuild = True
         self._forces_valid = False
         self.rebuilds = 0
@@ -245,8 +248,8 @@ class Simulation:
     def _alloc_lists(self, ns, cap, wcap):
         self._p = dict(start=np.zeros(ns + 1, np.int64), nbr=np.zeros(cap, np.int64),
                        hist=np.zeros((cap, HIST_WIDTH)),
-                       out=np.zeros((cap, _forces.OUT_WIDTH)), act=np.zeros(cap, np.bool_),
-                       rev_start=np.zeros(ns + 1, np.int64), rev=np.zeros(cap, np.int64))
+                       out=np.zeros((cap, _forces.PAIR_OUT_WIDTH)),
+                       act=np.zeros(cap, np.bool_))
         self._q = dict(start=np.zeros(ns + 1, np.int64), wid=np.zeros(wcap, np.int64),
                        hist=np.zeros((wcap, HIST_WIDTH)),
                        out=np.zeros((wcap, _forces.OUT_WIDTH)), act=np.zeros(wcap, np.bool_))
@@ -423,8 +426,7 @@ class Simulation:
         # pad the per-sphere CSR starts: new spheres have empty rows until the rebuild
         p, q = self._p, self._q
         for d in (p, q):
-            for key in ("start", "rev_start") if d is p else ("start",):
-                d[key] = np.concatenate([d[key], np.full(n * k, d[key][-1], np.int64)])
+            d["start"] = np.concatenate([d["start"], np.full(n * k, d["start"][-1], np.int64)])
         if self._old_of_new is not None:
             self._old_of_new = np.concatenate([self._old_of_new,
                                                np.full(n * k, -1, np.int64)])
@@ -561,6 +563,18 @@ class Simulation:
         last = fn(*args, bounds[t - 1], bounds[t])
         return [f.result() for f in futs] + [last]
 
+    def _par_chunks(self, fn):
+        """Run ``fn(c)`` for each chunk c of the split (``self.threads`` of them), each in
+        a thread of its own."""
+        t = self.threads
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=t - 1,
+                                            thread_name_prefix="demcal-dem")
+        futs = [self._pool.submit(fn, c) for c in range(t - 1)]
+        fn(t - 1)
+        for f in futs:
+            f.result()
+
     def _threaded(self, n):
         """Whether loops over ``n`` items are split between threads."""
         return self.threads > 1 and n >= self.parallel_threshold
@@ -663,9 +677,8 @@ class Simulation:
         else:
             new_p = dict(start=start, nbr=np.empty(cap, np.int64),
                          hist=np.empty((cap, HIST_WIDTH)),
-                         out=np.zeros((cap, _forces.OUT_WIDTH)),
-                         act=np.zeros(cap, np.bool_), rev=np.empty(cap, np.int64))
-        new_p["rev_start"] = np.zeros(ns + 1, np.int64)
+                         out=np.zeros((cap, _forces.PAIR_OUT_WIDTH)),
+                         act=np.zeros(cap, np.bool_))
         if ns:
             self._par(_nl.pack_rows, ns, tmp, start, new_p["nbr"])
             self._par(_nl.carry_history, ns, start, new_p["nbr"], new_p["hist"],
@@ -674,7 +687,7 @@ class Simulation:
         new_p["act"][npair:] = False
         self._spare_p = old_p if old_p["nbr"].shape[0] >= cap else None
         self._p = new_p
-        self._rev_valid = False
+        self._halo = None
         # walls
         w = self._w
         wstart = np.zeros(ns + 1, np.int64)
@@ -715,28 +728,42 @@ class Simulation:
             setattr(self, width_attr, int(1.25 * longest) + 1)
 
     # ------------------------------------------------------------------ stepping --
-    def _reverse_index(self):
-        """Build the pair list's reverse index once per list, when a split path needs it
-        (one thread never does)."""
-        if not self._rev_valid:
-            p = self._p
-            _nl.reverse_index(p["start"], p["nbr"], p["rev_start"], p["rev"])
-            self._rev_valid = True
+    def _halo_index(self):
+        """The split's chunks (``self.threads`` equal runs of bodies) and the pair list's
+        halo index for them (``neighbours.halo_index``), built once per list."""
+        t = self.threads
+        if self._halo is None or self._halo["chunks"].shape[0] != t + 1:
+            nb = self.n_particles
+            chunks = np.array([nb * c // t for c in range(t + 1)], np.int64)
+            bounds = self._b["start"][chunks]
+            rows, row, slots, slot, deferred, deferred_start = _nl.halo_index(
+                self._p["start"], self._p["nbr"], bounds)
+            self._halo = dict(chunks=chunks, bounds=bounds, rows=rows, row=row,
+                              slots=slots, slot=slot, deferred=deferred,
+                              deferred_start=deferred_start,
+                              buffer=np.zeros((slot.shape[0], HIST_WIDTH)))
+        return self._halo
 
     def _compute_forces(self, kick):
         b, s, p, q, w = self._b, self._s, self._p, self._q, self._w
         dt = self.dt
         ns = self.n_spheres
         if ns:
-            split = self._threaded(self.n_particles)
-            self._par(_forces.pair_forces, ns, self._models, self._table, dt, s["pos"],
-                      s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
-                      b["iso"], b["mat"], p["start"], p["nbr"], p["hist"], p["out"],
-                      p["act"], s["acc"], not split)
-            if split:
-                self._reverse_index()
-                self._par(_forces.reverse_sums, ns, s["acc"], p["out"], p["act"],
-                          p["rev_start"], p["rev"])
+            args = (self._models, self._table, dt, s["pos"], s["radius"], s["body"],
+                    b["pos"], b["vel"], b["omega"], b["mass"], b["iso"], b["mat"],
+                    p["start"], p["nbr"], p["hist"], p["out"], p["act"], s["acc"])
+            if self._threaded(self.n_particles):
+                h = self._halo_index()
+                rows, bounds, slots = h["rows"], h["bounds"], h["slots"]
+                self._par_chunks(lambda c: _forces.pair_forces(
+                    *args, h["row"], slots, h["slot"], rows[c], rows[c + 1], h["buffer"],
+                    h["deferred_start"][c], bounds[c], bounds[c + 1]))
+                self._par_chunks(lambda c: _forces.commit_deferred(
+                    p["hist"], p["act"], h["buffer"], h["slot"], h["deferred"],
+                    slots[rows[c]], slots[rows[c + 1]]))
+            else:
+                _forces.pair_forces(*args, _NO_HALO, _NO_HALO, _NO_HALO, 0, 0,
+                                    _NO_DEFERRED, 0, 0, ns)
             self._par(_forces.wall_forces, ns, self._models, self._table, dt, s["pos"],
                       s["radius"], s["body"], b["pos"], b["vel"], b["omega"], b["mass"],
                       b["iso"], b["mat"], q["start"], q["wid"], q["hist"], q["out"],
@@ -840,12 +867,13 @@ class Simulation:
                 w["material"], *moves)
         if not self._threaded(self.n_particles):
             return _stepper.run_steps(nsteps, *head, *tail)
-        self._reverse_index()
+        h = self._halo_index()
         before = numba.get_num_threads()
         numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
         try:
-            return _stepper.run_steps_split(nsteps, self.threads, *head, p["rev_start"],
-                                            p["rev"], *tail)
+            return _stepper.run_steps_split(nsteps, h["chunks"], *head, h["rows"],
+                                            h["row"], h["slots"], h["slot"], h["deferred"],
+                                            h["deferred_start"], h["buffer"], *tail)
         finally:
             numba.set_num_threads(before)
 
@@ -1028,6 +1056,8 @@ class Simulation:
             self._b = {k[2:]: z[k].copy() for k in z.files if k.startswith("b_")}
             self._s = {k[2:]: z[k].copy() for k in z.files if k.startswith("s_")}
             self._p = {k[2:]: z[k].copy() for k in z.files if k.startswith("p_")}
+            for key in ("rev", "rev_start"):   # written before the halo index (unused)
+                self._p.pop(key, None)
             self._q = {k[2:]: z[k].copy() for k in z.files if k.startswith("q_")}
             sc = z["scalars"]
             self.gravity = z["gravity"].copy()
@@ -1052,7 +1082,7 @@ class Simulation:
         self._forces_valid = bool(sc[5])
         self._needs_rebuild = bool(sc[6])
         self._old_of_new = opt["old_of_new"]
-        self._rev_valid = False
+        self._halo = None
         self._perm = None if opt["perm_b"] is None else (opt["perm_b"], opt["perm_s"])
         self._user_view = self._perm is not None
         self._carry_engine = opt["carry_engine"]

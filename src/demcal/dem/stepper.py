@@ -13,10 +13,10 @@ host only uses it while no other wall needs re-placing). ``travel_per_step`` bou
 far any wall point moves in a step.
 
 :func:`run_steps_split` is the same loop for several threads: each kernel runs over
-``nchunks`` fixed contiguous ranges in a numba ``prange`` (pair rows store their
-reactions, ``forces.reverse_sums`` adds them per sphere), which gives bitwise the
-numbers of :func:`run_steps`. It pays two fork-joins per step instead of Python's
-dispatch of each kernel.
+fixed contiguous chunks of bodies in a numba ``prange`` (each chunk evaluates the pair
+slots that reach into it from earlier chunks again, see ``forces.pair_forces``), which
+gives bitwise the numbers of :func:`run_steps`. It pays two fork-joins per step instead
+of Python's dispatch of each kernel.
 """
 
 import math
@@ -26,7 +26,7 @@ from numba import njit, prange
 
 from demcal.geometry.kernels import TRIANGLE
 
-from .forces import pair_forces, reverse_sums, wall_forces
+from .forces import commit_deferred, pair_forces, wall_forces
 from .integrator import drift, gather_kick
 
 
@@ -71,6 +71,8 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
     """
     nb = bpos.shape[0]
     ns = spos.shape[0]
+    none = np.zeros(1, np.int64)        # no halo: one chunk
+    no_deferred = np.zeros((0, p_hist.shape[1]))
     for k in range(nsteps):
         mx = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
                    bfixed, bstart, soffset, spos, sref, sdsq, 0, nb)
@@ -81,7 +83,8 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
         place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
                           wparams, worigin, wvel)
         pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
-                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, True, 0, ns)
+                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, none, none, none, 0,
+                    0, no_deferred, 0, 0, ns)
         wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
                     bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind, wparams, wvel,
                     womega, worigin, wmat, 0, ns)
@@ -101,30 +104,33 @@ def _largest(mxs):
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin, travel,
+def run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin, travel,
                     travel_per_step,
                     bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
                     biso, bmat, bfixed, bstart,
                     sbody, soffset, srad, spos, sref, sdsq, sacc,
-                    p_start, p_nbr, p_hist, p_out, p_act, p_rev_start, p_rev,
+                    p_start, p_nbr, p_hist, p_out, p_act,
+                    halo_rows, halo_row, halo_slots, halo_slot, halo_deferred,
+                    deferred_start, deferred,
                     q_start, q_wid, q_hist, q_out, q_act,
                     wkind, wparams, wvel, womega, worigin, wmat,
                     tflag, tvel, tstart, tstop, ref_params, ref_origin):
-    """:func:`run_steps` split between numba's threads; same arguments plus ``nchunks``
-    and the reverse index of the pair list.
+    """:func:`run_steps` split between numba's threads; same arguments plus the chunks
+    and the halo index of the pair list (``neighbours.halo_index``, built for these
+    chunks) with its buffer ``deferred``.
 
-    Chunk c holds the bodies ``[nb c / nchunks, nb (c + 1) / nchunks)`` and their
-    spheres. A step is two parallel regions: the pair rows of each chunk (storing the
-    reactions), then, chunk by chunk, the reactions and wall contacts of its spheres,
-    the kick of its bodies and their drift into the next step, which touch nothing of
-    another chunk.
+    Chunk c holds the bodies ``[chunks[c], chunks[c + 1])`` and their spheres. A step is
+    two parallel regions: the pair contacts of each chunk's spheres (its halo slots,
+    then its rows), then, chunk by chunk, the new history of its halo slots, the wall
+    contacts of its spheres, the kick of its bodies and their drift into the next step,
+    which touch nothing of another chunk.
     """
-    nb = bpos.shape[0]
+    nchunks = chunks.shape[0] - 1
     mxs = np.zeros(nchunks)
     for c in prange(nchunks):
         mxs[c] = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
                        binertia, bfixed, bstart, soffset, spos, sref, sdsq,
-                       nb * c // nchunks, nb * (c + 1) // nchunks)
+                       chunks[c], chunks[c + 1])
     for k in range(nsteps):
         time += dt
         travel += travel_per_step
@@ -134,15 +140,17 @@ def run_steps_split(nsteps, nchunks, dt, time, gravity, models, table, half_skin
                           wparams, worigin, wvel)
         for c in prange(nchunks):
             pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
-                        biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, False,
-                        bstart[nb * c // nchunks], bstart[nb * (c + 1) // nchunks])
+                        biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, halo_row,
+                        halo_slots, halo_slot, halo_rows[c], halo_rows[c + 1], deferred,
+                        deferred_start[c], bstart[chunks[c]], bstart[chunks[c + 1]])
         last = k + 1 == nsteps
         for c in prange(nchunks):
-            b0 = nb * c // nchunks
-            b1 = nb * (c + 1) // nchunks
+            b0 = chunks[c]
+            b1 = chunks[c + 1]
             s0 = bstart[b0]
             s1 = bstart[b1]
-            reverse_sums(sacc, p_out, p_act, p_rev_start, p_rev, s0, s1)
+            commit_deferred(p_hist, p_act, deferred, halo_slot, halo_deferred,
+                            halo_slots[halo_rows[c]], halo_slots[halo_rows[c + 1]])
             wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind,
                         wparams, wvel, womega, worigin, wmat, s0, s1)
