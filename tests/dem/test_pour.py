@@ -106,37 +106,6 @@ def test_same_result_for_any_thread_count(backend, template, model, fill):
             assert np.array_equal(a, b)
 
 
-def test_halo_index_lists_every_slot_that_crosses_a_chunk():
-    from demcal.dem.neighbours import halo_index
-
-    rng = np.random.default_rng(3)
-    ns = 60
-    rows = [np.sort(rng.choice(np.arange(i + 1, ns), size=min(ns - i - 1, rng.integers(0, 6)),
-                               replace=False)) for i in range(ns)]
-    start = np.concatenate([[0], np.cumsum([len(r) for r in rows])]).astype(np.int64)
-    nbr = np.concatenate(rows).astype(np.int64)
-    bounds = np.array([0, 7, 7, 30, 41, 60], np.int64)   # an empty chunk too
-    chunk = np.searchsorted(bounds, np.arange(ns), side="right") - 1
-    halo_rows, halo_row, halo_slots, halo_slot, deferred, deferred_start = halo_index(
-        start, nbr, bounds)
-    row_of = np.repeat(np.arange(ns), np.diff(start))
-    crossing = np.flatnonzero(chunk[row_of] != chunk[nbr])   # in slot order
-    for c in range(len(bounds) - 1):
-        want = crossing[chunk[nbr[crossing]] == c]
-        got = []
-        for r in range(halo_rows[c], halo_rows[c + 1]):
-            slots = halo_slot[halo_slots[r]:halo_slots[r + 1]]
-            assert np.all(row_of[slots] == halo_row[r])
-            got.extend(slots)
-        assert np.array_equal(got, want)
-        assert np.all(np.diff(halo_row[halo_rows[c]:halo_rows[c + 1]]) > 0)
-        # the owner of a row numbers its crossing slots from deferred_start, in slot order
-        mine = crossing[chunk[row_of[crossing]] == c]
-        assert deferred_start[c + 1] - deferred_start[c] == len(mine)
-    position = {p: k for k, p in enumerate(crossing)}
-    assert [position[p] for p in halo_slot] == list(deferred)
-
-
 def test_default_threads_follow_numba(backend):
     # a campaign worker caps numba's threads; the engine's own thread pool follows
     import numba

@@ -13,7 +13,8 @@ reallocates the CSR arrays when the capacity is too small (growth 1.5x) and pack
 rows (``pack_rows``); a row wider than the table makes the host widen it and search
 again (rare: the width follows the longest row seen). Every row is written by one
 thread in a fixed order, so the list is identical for any thread count. Contact history
-is carried over a rebuild by matching pairs (``carry_history``).
+is carried over a rebuild by matching pairs (``carry_history``); then each row puts its
+touching pairs last (``touching_last``), both groups in neighbour order.
 
 Wall candidates use the same CSR layout per sphere: wall rows whose distance (from
 ``demcal.geometry.kernels.wall_distance``) is below ``r + skin``.
@@ -186,6 +187,46 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
             else:
                 for k in range(w):
                     new_hist[p, k] = 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def touching_last(row_start, nbr, hist, lo, hi):
+    """Reorder each row of [lo, hi) so that the slots flagged as touching
+    (``hist[p, 7]``) come after the others, each group keeping its order (ascending j);
+    the history moves along.
+
+    The pair loop branches on whether a slot touches; grouped, the branch changes
+    direction about once per row instead of at random (the pair loop is 11 % faster on
+    a settled bed, docs/performance.md). Contacts opening and closing between builds
+    only blur the grouping.
+    """
+    w = hist.shape[1]
+    keep = np.empty((64, w))
+    keep_j = np.empty(64, np.int64)
+    for i in range(lo, hi):
+        a = row_start[i]
+        b = row_start[i + 1]
+        n = 0       # touching slots set aside
+        m = a       # next place for a slot that does not touch
+        for p in range(a, b):
+            if hist[p, 7] != 0.0:
+                if n == keep_j.shape[0]:
+                    keep = np.concatenate((keep, np.empty((n, w))))
+                    keep_j = np.concatenate((keep_j, np.empty(n, np.int64)))
+                keep_j[n] = nbr[p]
+                for c in range(w):
+                    keep[n, c] = hist[p, c]
+                n += 1
+            else:
+                if m != p:
+                    nbr[m] = nbr[p]
+                    for c in range(w):
+                        hist[m, c] = hist[p, c]
+                m += 1
+        for t in range(n):
+            nbr[m + t] = keep_j[t]
+            for c in range(w):
+                hist[m + t, c] = keep[t, c]
 
 
 @njit(cache=True, error_model="numpy")

@@ -683,6 +683,7 @@ class Simulation:
             self._par(_nl.pack_rows, ns, tmp, start, new_p["nbr"])
             self._par(_nl.carry_history, ns, start, new_p["nbr"], new_p["hist"],
                       old_p["start"], old_p["nbr"], old_p["hist"], old_of_new, True)
+            self._par(_nl.touching_last, ns, start, new_p["nbr"], new_p["hist"])
         new_p["act"][:npair] = new_p["hist"][:npair, 7] != 0.0
         new_p["act"][npair:] = False
         self._spare_p = old_p if old_p["nbr"].shape[0] >= cap else None
