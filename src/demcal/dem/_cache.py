@@ -70,7 +70,9 @@ def prefer_openmp() -> None:
     (docs/performance.md). Where OpenMP is missing numba falls back to TBB or its
     work queue as before; ``NUMBA_THREADING_LAYER`` or
     ``NUMBA_THREADING_LAYER_PRIORITY`` set by the user win. Only takes effect before
-    numba's first parallel call in the process.
+    numba's first parallel call in the process. GNU OpenMP does not survive a ``fork``
+    (numba stops a forked child that uses it); demcal's executors spawn their workers,
+    and numba would pick OpenMP anyway wherever TBB is not installed.
     """
     import numba
 
