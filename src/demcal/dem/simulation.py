@@ -737,12 +737,12 @@ class Simulation:
             nb = self.n_particles
             chunks = np.array([nb * c // t for c in range(t + 1)], np.int64)
             bounds = self._b["start"][chunks]
-            rows, row, slots, slot, deferred, deferred_start = _nl.halo_index(
+            rows, row, slots, slot, slot_deferred, deferred_start = _nl.halo_index(
                 self._p["start"], self._p["nbr"], bounds)
             self._halo = dict(chunks=chunks, bounds=bounds, rows=rows, row=row,
-                              slots=slots, slot=slot, deferred=deferred,
+                              slots=slots, slot=slot, slot_deferred=slot_deferred,
                               deferred_start=deferred_start,
-                              buffer=np.zeros((slot.shape[0], HIST_WIDTH)))
+                              deferred=np.zeros((slot.shape[0], HIST_WIDTH)))
         return self._halo
 
     def _compute_forces(self, kick):
@@ -757,10 +757,10 @@ class Simulation:
                 h = self._halo_index()
                 rows, bounds, slots = h["rows"], h["bounds"], h["slots"]
                 self._par_chunks(lambda c: _forces.pair_forces(
-                    *args, h["row"], slots, h["slot"], rows[c], rows[c + 1], h["buffer"],
+                    *args, h["row"], slots, h["slot"], rows[c], rows[c + 1], h["deferred"],
                     h["deferred_start"][c], bounds[c], bounds[c + 1]))
                 self._par_chunks(lambda c: _forces.commit_deferred(
-                    p["hist"], p["act"], h["buffer"], h["slot"], h["deferred"],
+                    p["hist"], p["act"], h["deferred"], h["slot"], h["slot_deferred"],
                     slots[rows[c]], slots[rows[c + 1]]))
             else:
                 _forces.pair_forces(*args, _NO_HALO, _NO_HALO, _NO_HALO, 0, 0,
@@ -873,8 +873,9 @@ class Simulation:
         numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
         try:
             return _stepper.run_steps_split(nsteps, h["chunks"], *head, h["rows"],
-                                            h["row"], h["slots"], h["slot"], h["deferred"],
-                                            h["deferred_start"], h["buffer"], *tail)
+                                            h["row"], h["slots"], h["slot"],
+                                            h["slot_deferred"], h["deferred_start"],
+                                            h["deferred"], *tail)
         finally:
             numba.set_num_threads(before)
 
