@@ -279,14 +279,10 @@ def halo_index(row_start, nbr, bounds):
                 halo_deferred[t] = k
                 cursor[cj] += 1
                 k += 1
-    nrows = 0
-    for c in range(nch):
-        for t in range(target_start[c], target_start[c + 1]):
-            if t == target_start[c] or slot_row[t] != slot_row[t - 1]:
-                nrows += 1
+    # a halo row starts at each chunk's first slot and wherever the row changes
     halo_rows = np.zeros(nch + 1, np.int64)
-    halo_row = np.empty(nrows, np.int64)
-    halo_slots = np.empty(nrows + 1, np.int64)
+    halo_row = np.empty(nx, np.int64)
+    halo_slots = np.empty(nx + 1, np.int64)
     r = 0
     for c in range(nch):
         halo_rows[c] = r
@@ -296,8 +292,9 @@ def halo_index(row_start, nbr, bounds):
                 halo_slots[r] = t
                 r += 1
     halo_rows[nch] = r
-    halo_slots[nrows] = nx
-    return halo_rows, halo_row, halo_slots, halo_slot, halo_deferred, deferred_start
+    halo_slots[r] = nx
+    return (halo_rows, halo_row[:r].copy(), halo_slots[:r + 1].copy(), halo_slot,
+            halo_deferred, deferred_start)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
