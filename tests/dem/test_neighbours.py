@@ -61,3 +61,24 @@ def test_halo_index_lists_every_slot_that_crosses_a_chunk():
         assert deferred_start[c + 1] - deferred_start[c] == len(mine)
     position = {p: k for k, p in enumerate(crossing)}
     assert [position[p] for p in halo_slot] == list(deferred)
+
+
+def test_cell_search_finds_every_pair_within_reach_once():
+    from demcal.dem.neighbours import build_cells, pair_rows
+
+    rng = np.random.default_rng(8)
+    ns = 400
+    pos = rng.uniform(0.0, 0.05, size=(ns, 3))
+    rad = rng.uniform(0.001, 0.003, size=ns)          # 3:1 radii
+    body = np.repeat(np.arange(ns // 2), 2)            # pairs of spheres share a body
+    skin = 0.001
+    lo, h, dims, cell_of, cell_start, cell_order = build_cells(pos, rad, skin, 8 * ns)
+    tmp = np.empty((ns, 64), np.int64)
+    counts = np.empty(ns, np.int64)
+    pair_rows(pos, rad, body, skin, dims, cell_of, cell_start, cell_order, tmp, counts, 0, ns)
+    assert counts.max() <= 64
+    for i in range(ns):
+        d = np.linalg.norm(pos - pos[i], axis=1)
+        want = np.flatnonzero((d < rad + rad[i] + skin) & (np.arange(ns) > i)
+                              & (body != body[i]))
+        assert np.array_equal(tmp[i, :counts[i]], want)   # ascending j, each once

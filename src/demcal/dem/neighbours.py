@@ -87,6 +87,8 @@ def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
               tmp, counts, lo, hi):
     """One pass of the cell search: row i's neighbours j > i (other bodies, within
     ``r_i + r_j + skin``) go to ``tmp[i, :]`` sorted by j, their number to ``counts[i]``.
+    Each cell's spheres are listed in ascending order (``build_cells``), so the scan of
+    a cell stops at i instead of testing every sphere in it against i.
     A row longer than ``tmp.shape[1]`` is counted in full but stored only up to that
     width; the host then widens ``tmp`` and searches again."""
     d0 = dims[0]
@@ -117,9 +119,12 @@ def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
                     if x < 0 or x >= d0:
                         continue
                     cc = x + d0 * (y + d1 * z)
-                    for k in range(cell_start[cc], cell_start[cc + 1]):
+                    # a cell lists its spheres in ascending order: walk it down to i
+                    for k in range(cell_start[cc + 1] - 1, cell_start[cc] - 1, -1):
                         j = cell_order[k]
-                        if j <= i or sbody[j] == bi:
+                        if j <= i:
+                            break
+                        if sbody[j] == bi:
                             continue
                         ddx = spos[j, 0] - xi
                         ddy = spos[j, 1] - yi
