@@ -75,7 +75,8 @@ def test_cell_search_finds_every_pair_within_reach_once():
     lo, h, dims, cell_of, cell_start, cell_order = build_cells(pos, rad, skin, 8 * ns)
     tmp = np.empty((ns, 64), np.int64)
     counts = np.empty(ns, np.int64)
-    pair_rows(pos, rad, body, skin, dims, cell_of, cell_start, cell_order, tmp, counts, 0, ns)
+    pair_rows(pos, rad, body, skin, lo, h, dims, cell_of, cell_start, cell_order, tmp, counts,
+              0, ns)
     assert counts.max() <= 64
     for i in range(ns):
         d = np.linalg.norm(pos - pos[i], axis=1)

@@ -83,41 +83,43 @@ def build_cells(spos, srad, skin, max_cells):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def pair_rows(spos, srad, sbody, skin, dims, cell_of, cell_start, cell_order,
+def pair_rows(spos, srad, sbody, skin, lo_corner, h, dims, cell_of, cell_start, cell_order,
               tmp, counts, lo, hi):
     """One pass of the cell search: row i's neighbours j > i (other bodies, within
     ``r_i + r_j + skin``) go to ``tmp[i, :]`` sorted by j, their number to ``counts[i]``.
-    Each cell's spheres are listed in ascending order (``build_cells``), so the scan of
-    a cell stops at i instead of testing every sphere in it against i.
     A row longer than ``tmp.shape[1]`` is counted in full but stored only up to that
-    width; the host then widens ``tmp`` and searches again."""
+    width; the host then widens ``tmp`` and searches again.
+
+    Sphere i scans the cells that meet the box of half-width ``r_i + r_max + skin``
+    around it (its reach to the largest sphere), not always the 27 around its cell:
+    a small sphere among large ones scans fewer. Each cell's spheres are listed in
+    ascending order (``build_cells``), so the scan of a cell stops at i."""
     d0 = dims[0]
     d1 = dims[1]
     d2 = dims[2]
     width = tmp.shape[1]
+    rmax = 0.0
+    for k in range(srad.shape[0]):
+        if srad[k] > rmax:
+            rmax = srad[k]
     for i in range(lo, hi):
-        c = cell_of[i]
-        cx = c % d0
-        cy = (c // d0) % d1
-        cz = c // (d0 * d1)
         xi = spos[i, 0]
         yi = spos[i, 1]
         zi = spos[i, 2]
         ri = srad[i] + skin
+        reach = ri + rmax
+        # the cells of x - reach and x + reach, as build_cells places a sphere there
+        x0 = max(int((xi - reach - lo_corner[0]) / h), 0)
+        x1 = min(int((xi + reach - lo_corner[0]) / h), d0 - 1)
+        y0 = max(int((yi - reach - lo_corner[1]) / h), 0)
+        y1 = min(int((yi + reach - lo_corner[1]) / h), d1 - 1)
+        z0 = max(int((zi - reach - lo_corner[2]) / h), 0)
+        z1 = min(int((zi + reach - lo_corner[2]) / h), d2 - 1)
         bi = sbody[i]
         n = 0
-        for dz in range(-1, 2):
-            z = cz + dz
-            if z < 0 or z >= d2:
-                continue
-            for dy in range(-1, 2):
-                y = cy + dy
-                if y < 0 or y >= d1:
-                    continue
-                for dx in range(-1, 2):
-                    x = cx + dx
-                    if x < 0 or x >= d0:
-                        continue
+        for z in range(z0, z1 + 1):
+            for y in range(y0, y1 + 1):
+                for x in range(x0, x1 + 1):
                     cc = x + d0 * (y + d1 * z)
                     # a cell lists its spheres in ascending order: walk it down to i
                     for k in range(cell_start[cc + 1] - 1, cell_start[cc] - 1, -1):

@@ -664,8 +664,8 @@ class Simulation:
             lo, h, dims, cell_of, cell_start, cell_order = _nl.build_cells(
                 s["pos"], s["radius"], skin, max_cells)
             tmp = self._search(_nl.pair_rows, "_row_width", ns, start, s["pos"],
-                               s["radius"], s["body"], skin, dims, cell_of, cell_start,
-                               cell_order)
+                               s["radius"], s["body"], skin, lo, h, dims, cell_of,
+                               cell_start, cell_order)
         npair = _nl.prefix_sum(start)
         cap = old_p["nbr"].shape[0]
         if npair > cap:
