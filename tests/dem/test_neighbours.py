@@ -72,10 +72,10 @@ def test_cell_search_finds_every_pair_within_reach_once():
     rad = rng.uniform(0.001, 0.003, size=ns)          # 3:1 radii
     body = np.repeat(np.arange(ns // 2), 2)            # pairs of spheres share a body
     skin = 0.001
-    lo, h, dims, cell_of, cell_start, cell_order = build_cells(pos, rad, skin, 8 * ns)
+    lo, h, dims, rmax, cell_start, cell_order = build_cells(pos, rad, skin, 8 * ns)
     tmp = np.empty((ns, 64), np.int64)
     counts = np.empty(ns, np.int64)
-    pair_rows(pos, rad, body, skin, lo, h, dims, cell_of, cell_start, cell_order, tmp, counts,
+    pair_rows(pos, rad, body, skin, lo, h, dims, rmax, cell_start, cell_order, tmp, counts,
               0, ns)
     assert counts.max() <= 64
     for i in range(ns):

@@ -176,6 +176,8 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
                 nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
                 li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
+            # a halo row's own sums are dropped below; the code that computes them is
+            # the owner's, so both evaluate the contact with the same instructions
             fsx += fx
             fsy += fy
             fsz += fz

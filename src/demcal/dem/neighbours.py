@@ -32,7 +32,7 @@ from demcal.geometry.kernels import wall_distance
 def build_cells(spos, srad, skin, max_cells):
     """Cell grid and a counting sort of the spheres into cells.
 
-    Returns ``(lo, h, dims, cell_of, cell_start, cell_order)``.
+    Returns ``(lo, h, dims, rmax, cell_start, cell_order)`` (``rmax`` the largest radius).
     """
     ns = spos.shape[0]
     lo = np.empty(3)
@@ -79,11 +79,11 @@ def build_cells(spos, srad, skin, max_cells):
         c = cell_of[i]
         cell_order[cursor[c]] = i
         cursor[c] += 1
-    return lo, h, dims, cell_of, cell_start, cell_order
+    return lo, h, dims, rmax, cell_start, cell_order
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def pair_rows(spos, srad, sbody, skin, lo_corner, h, dims, cell_of, cell_start, cell_order,
+def pair_rows(spos, srad, sbody, skin, lo_corner, h, dims, rmax, cell_start, cell_order,
               tmp, counts, lo, hi):
     """One pass of the cell search: row i's neighbours j > i (other bodies, within
     ``r_i + r_j + skin``) go to ``tmp[i, :]`` sorted by j, their number to ``counts[i]``.
@@ -98,10 +98,6 @@ def pair_rows(spos, srad, sbody, skin, lo_corner, h, dims, cell_of, cell_start, 
     d1 = dims[1]
     d2 = dims[2]
     width = tmp.shape[1]
-    rmax = 0.0
-    for k in range(srad.shape[0]):
-        if srad[k] > rmax:
-            rmax = srad[k]
     for i in range(lo, hi):
         xi = spos[i, 0]
         yi = spos[i, 1]

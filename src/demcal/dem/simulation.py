@@ -555,11 +555,9 @@ class Simulation:
         t = self.threads
         if not self._threaded(self.n_particles):
             return [fn(*args, 0, n)]
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(max_workers=t - 1,
-                                            thread_name_prefix="demcal-dem")
         bounds = [n * k // t for k in range(t + 1)]
-        futs = [self._pool.submit(fn, *args, bounds[k], bounds[k + 1]) for k in range(t - 1)]
+        futs = [self._thread_pool().submit(fn, *args, bounds[k], bounds[k + 1])
+                for k in range(t - 1)]
         last = fn(*args, bounds[t - 1], bounds[t])
         return [f.result() for f in futs] + [last]
 
@@ -567,13 +565,17 @@ class Simulation:
         """Run ``fn(c)`` for each chunk c of the split (``self.threads`` of them), each in
         a thread of its own."""
         t = self.threads
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(max_workers=t - 1,
-                                            thread_name_prefix="demcal-dem")
-        futs = [self._pool.submit(fn, c) for c in range(t - 1)]
+        futs = [self._thread_pool().submit(fn, c) for c in range(t - 1)]
         fn(t - 1)
         for f in futs:
             f.result()
+
+    def _thread_pool(self):
+        """The engine's worker threads (``threads - 1``; the caller's is the last)."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=self.threads - 1,
+                                            thread_name_prefix="demcal-dem")
+        return self._pool
 
     def _threaded(self, n):
         """Whether loops over ``n`` items are split between threads."""
@@ -661,10 +663,10 @@ class Simulation:
         start = np.zeros(ns + 1, np.int64)
         if ns:
             max_cells = max(8 * ns, 1000)
-            lo, h, dims, cell_of, cell_start, cell_order = _nl.build_cells(
+            lo, h, dims, rmax, cell_start, cell_order = _nl.build_cells(
                 s["pos"], s["radius"], skin, max_cells)
             tmp = self._search(_nl.pair_rows, "_row_width", ns, start, s["pos"],
-                               s["radius"], s["body"], skin, lo, h, dims, cell_of,
+                               s["radius"], s["body"], skin, lo, h, dims, rmax,
                                cell_start, cell_order)
         npair = _nl.prefix_sum(start)
         cap = old_p["nbr"].shape[0]
