@@ -109,6 +109,9 @@ def input_script(p: dict, walls_box, settle_steps: int, warmup_steps: int, steps
         "atom_style granular",
         "atom_modify map array",
         "boundary f f f",
+        # split the domain across the bed, never along gravity: the bed lies in the
+        # lower part of the domain, so a split along z leaves the upper ranks empty
+        "processors * * 1",
         "newton off",
         "communicate single vel yes",
         "units si",
