@@ -6,10 +6,13 @@ theta = 25.42 and 30.46 deg gives solutions within 0.01 deg of the target inside
 design box, and the solution set's factor ranges.
 """
 
+import functools
 import importlib.resources
+import itertools
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from demcal.cli import main
@@ -19,6 +22,45 @@ from demcal.report.paper import REPOSE, SLIDING, fit_study
 
 DATA = importlib.resources.files("demcal") / "data"
 TABLE4 = str(DATA / "paper_table4_repose_bbd.csv")
+STUDY_DATA = {"repose": ("paper_table4_repose_bbd.csv", "ABCD", "repose_angle_deg"),
+              "sliding": ("paper_table8_sliding_bbd.csv", "EFG", "sliding_angle_deg")}
+#: coded distance allowed between the reported solution-set range and the brute force
+RANGE_TOL = 0.02
+
+
+@functools.lru_cache(maxsize=None)
+def brute_force_ranges(study, target, threshold=0.99, n_line=201, n_other=21):
+    """Coded range of each factor over {D >= threshold} by brute force, independent of demcal.
+
+    The full quadratic is fitted to the study's runs with numpy. A target goal with the
+    default limits (the observed response range L..H, weights 1) has D >= threshold
+    exactly where y lies in [T - (1 - thr)(T - L), T + (1 - thr)(H - T)]. For a value v of
+    factor j (201 values, step 0.01) the other factors span a box, on which y takes every
+    value between its min and max (21-level grid per factor); v belongs to the range when
+    that interval meets the band.
+    """
+    name, names, response = STUDY_DATA[study]
+    df = pd.read_csv(DATA / name)
+    x, y = df[list(names)].to_numpy(float), df[response].to_numpy(float)
+    k = x.shape[1]
+    terms = [tuple([0] * k)] + [tuple(int(i == j) for i in range(k)) for j in range(k)]
+    terms += [tuple(int(i in ab) for i in range(k)) for ab in itertools.combinations(range(k), 2)]
+    terms += [tuple(2 * int(i == j) for i in range(k)) for j in range(k)]
+    b, *_ = np.linalg.lstsq(np.column_stack([np.prod(x ** np.array(t), axis=1) for t in terms]),
+                            y, rcond=None)
+    band = (target - (1 - threshold) * (target - y.min()), target + (1 - threshold) * (y.max() - target))
+    line, other = np.linspace(-1, 1, n_line), np.linspace(-1, 1, n_other)
+    out = {}
+    for j in range(k):
+        axes = [(line if i == j else other).reshape([-1 if a == i else 1 for a in range(k)])
+                for i in range(k)]
+        Y = sum(c * functools.reduce(np.multiply, [axes[i] ** e for i, e in enumerate(t)])
+                for t, c in zip(terms, b))
+        Y = np.broadcast_to(Y, [n_line if i == j else n_other for i in range(k)])
+        rest = tuple(i for i in range(k) if i != j)
+        ok = (Y.min(axis=rest) <= band[1]) & (Y.max(axis=rest) >= band[0])
+        out[names[j]] = (line[ok].min(), line[ok].max())
+    return out, (float(y.min()), float(y.max()))
 
 
 def test_desirability_shapes_derringer_suich():
@@ -83,6 +125,43 @@ def test_paper_targets_are_reached_with_a_solution_set(models, study, target):
     # every point reported in the solution set really has D >= threshold
     g = res.goals[0]
     assert np.all(g.desirability(m.predict(res.set_points)) >= 0.99 - 1e-9)
+    # and the ranges are those of the whole set {D >= 0.99}, found by brute force
+    ref, (y_lo, y_hi) = brute_force_ranges(study, target)
+    assert res.threshold == 0.99 and (g.low, g.high) == pytest.approx((y_lo, y_hi))
+    for f in m.factors:
+        lo, hi = res.factor_ranges_coded[f.name]
+        assert (lo, hi) == pytest.approx(ref[f.name], abs=RANGE_TOL), f.name
+        assert res.factor_ranges[f.name] == pytest.approx(
+            (f.to_actual(ref[f.name][0]), f.to_actual(ref[f.name][1])), abs=RANGE_TOL * f.half_range)
+
+
+@pytest.mark.parametrize("study, target, seed, starts", [
+    ("repose", 31.07, 6, 4), ("repose", 31.07, 5, 8), ("sliding", 25.42, 9, 16)])
+def test_solution_set_ranges_do_not_hang_on_the_starts(models, study, target, seed, starts):
+    """Seeds and start counts whose searches, before the slice scan, stopped short of the
+    set's extent (A from -0.34 instead of -1, C up to -0.64 instead of -0.53, G up to
+    0.55 instead of 0.60): the ranges are the brute force's whatever the starts."""
+    m = models[study]
+    res = optimize({m.response: m}, [Goal(m.response, "target", target)], n_starts=starts,
+                   seed=seed)
+    ref, _ = brute_force_ranges(study, target)
+    for f in m.factors:
+        assert res.factor_ranges_coded[f.name] == pytest.approx(ref[f.name], abs=RANGE_TOL), f.name
+    assert np.all(res.goals[0].desirability(m.predict(res.set_points)) >= 0.99 - 1e-9)
+
+
+def test_solution_set_ranges_with_several_goals(models):
+    """Two goals on two copies of one model, both on the same target: D is then the one
+    goal's d, so the set (found by the several-goal search) is the brute force's."""
+    m = models["repose"]
+    other = fit_study(REPOSE)
+    other.response = "copy"
+    res = optimize({m.response: m, "copy": other},
+                   [Goal(m.response, "target", 31.07), Goal("copy", "target", 31.07)],
+                   n_starts=4, seed=6)
+    ref, _ = brute_force_ranges("repose", 31.07)
+    for f in m.factors:
+        assert res.factor_ranges_coded[f.name] == pytest.approx(ref[f.name], abs=RANGE_TOL), f.name
 
 
 def test_unreachable_target_and_impossible_range(models):
@@ -120,6 +199,20 @@ def test_optimize_cli_json(capsys):
     assert set(out["factor_ranges"]) == {"A", "B", "C", "D"}
     lo, hi = out["factor_ranges"]["C"]
     assert 0.1 - 1e-9 <= lo <= hi <= 0.3 + 1e-9
+    # the ranges against a brute-force search of {D >= 0.99}: A, B, D span the box, C only
+    # reaches -0.53 coded (8 starts alone stopped at -0.637 before the range search also
+    # started from samples of the set)
+    ref, _ = brute_force_ranges("repose", 31.07)
+    assert ref["C"] == pytest.approx((-1.0, -0.53), abs=0.01)
+    coded = _cli_coded_ranges(out)
+    for name in "ABCD":
+        assert coded[name] == pytest.approx(ref[name], abs=RANGE_TOL), name
+
+
+def _cli_coded_ranges(out):
+    centre = {"A": 0.6, "B": 0.4, "C": 0.2, "D": 0.1}  # Table 3 levels, half-range 0.1
+    return {n: ((lo - centre[n]) / 0.1, (hi - centre[n]) / 0.1)
+            for n, (lo, hi) in out["factor_ranges"].items()}
 
 
 def test_optimize_cli_bad_inputs(capsys, tmp_path):

@@ -5,8 +5,14 @@ Nelder-Mead from many random starts (Design-Expert also restarts a simplex searc
 random points). Because one measured angle cannot pin down several contact parameters,
 many settings reach D = 1: the result therefore also reports the *solution set*, the
 range of every factor over all settings with D >= ``threshold``. Those ranges are found
-by minimising and maximising each factor subject to D >= threshold (SLSQP) from the best
-solutions, not only from the points the search happened to visit.
+in two stages. First each factor is minimised and maximised subject to D >= threshold
+(SLSQP), started from the most extreme of the solutions and of random samples of the set.
+SLSQP only climbs to the nearest extreme of a set that may be curved, thin or in pieces,
+so then each factor's range is widened by slices: from the bound of the box inward, in
+steps of 0.02 coded, the first value of the factor at which the other factors can still
+reach D >= threshold (found exactly for one goal, by the intermediate value theorem on
+the slice's lowest and highest response; by a local search for several goals), refined
+by bisection.
 """
 
 from __future__ import annotations
@@ -297,10 +303,12 @@ def optimize(
     ranges_coded = {}
     good = X[Dd >= threshold]
     if len(good):
-        extra = _solution_set_extremes(problem, good, bounds, threshold)
-        set_pts.append(extra)
         samples = _sample_set(problem, good, bounds, threshold, rng)
-        set_pts.append(samples)
+        extra = _solution_set_extremes(problem, np.vstack([good, samples]), bounds,
+                                       threshold)
+        set_pts += [extra, samples]
+        set_pts.append(_widen_ranges(problem, np.vstack([p for p in set_pts if len(p)]),
+                                     bounds, threshold, rng))
         allp = np.vstack([p for p in set_pts if len(p)])
         for j, f in enumerate(factors):
             ranges_coded[f.name] = (float(allp[:, j].min()), float(allp[:, j].max()))
@@ -343,3 +351,107 @@ def _sample_set(problem: _Problem, good, bounds, threshold, rng, n: int = 4000):
                   bounds[:, 0], bounds[:, 1])
     cand = np.vstack([uni, jit])
     return cand[problem.D(cand) >= threshold]
+
+
+#: coded step of the slice scan in :func:`_widen_ranges` and points tried per slice
+SLICE_STEP = 0.02
+SLICE_POINTS = 256
+
+
+def _slice_point(problem: _Problem, j, v, bounds, threshold, others):
+    """A point of the solution set whose factor j is ``v``, or None if the slice holds none.
+
+    ``others`` are random points of the box; their factor j is set to v. For one goal,
+    the slice (a box, so connected) holds such a point exactly when the interval between
+    the response's lowest and highest value on it meets the goal's band (intermediate
+    value theorem); both are found by L-BFGS-B from the best of the points, and the point
+    by bisection on the segment between them. For several goals D is maximised on the
+    slice from the best of the points.
+    """
+    k = bounds.shape[0]
+    free = np.array([i for i in range(k) if i != j], dtype=int)
+    X = np.array(others, dtype=float)
+    X[:, j] = v
+
+    def embed(z):
+        x = np.empty(k)
+        x[free] = z
+        x[j] = v
+        return x
+
+    def settle(x):
+        return x if problem.D(x)[0] >= threshold - 1e-9 else None
+
+    if len(problem.goals) == 1:
+        g = problem.goals[0]
+        model = problem.models[g.response]
+        lo_b, hi_b = g.band(threshold)
+        y = model.predict(X)
+        inside = (y >= lo_b) & (y <= hi_b)
+        if inside.any():
+            return X[np.flatnonzero(inside)[0]]
+        ends = []
+        for sign, i0 in ((1.0, int(np.argmin(y))), (-1.0, int(np.argmax(y)))):
+            r = sopt.minimize(
+                lambda z: (sign * float(model.predict(embed(z))),
+                           sign * model.gradient(embed(z))[free]),
+                X[i0, free], jac=True, method="L-BFGS-B", bounds=bounds[free])
+            ends.append(embed(np.clip(r.x, bounds[free, 0], bounds[free, 1])))
+        xa, xb = ends
+        ya, yb = float(model.predict(xa)), float(model.predict(xb))
+        if ya > hi_b or yb < lo_b:
+            return None
+        aim = g.target if g.kind == "target" else (lo_b if np.isinf(hi_b) else
+                                                   hi_b if np.isinf(lo_b) else
+                                                   0.5 * (lo_b + hi_b))
+        aim = min(max(aim, ya), yb)
+        t0, t1 = 0.0, 1.0
+        for _ in range(60):
+            t = 0.5 * (t0 + t1)
+            if float(model.predict(xa + t * (xb - xa))) < aim:
+                t0 = t
+            else:
+                t1 = t
+        for t in (t0, t1):
+            x = settle(xa + t * (xb - xa))
+            if x is not None:
+                return x
+        return None
+    D = problem.D(X)
+    i0 = int(np.argmax(D))
+    if D[i0] >= threshold:
+        return X[i0]
+    r = sopt.minimize(lambda z: (lambda f, gr: (f, gr[free]))(*problem.loss_and_grad(embed(z))),
+                      X[i0, free], jac=True, method="L-BFGS-B", bounds=bounds[free])
+    return settle(embed(np.clip(r.x, bounds[free, 0], bounds[free, 1])))
+
+
+def _widen_ranges(problem: _Problem, pts, bounds, threshold, rng):
+    """Points of the solution set beyond the factor ranges of ``pts``: for each factor and
+    side, the outermost slice (scanned from the bound inward, refined by bisection) that
+    holds one (see :func:`_slice_point`)."""
+    k = bounds.shape[0]
+    others = rng.uniform(bounds[:, 0], bounds[:, 1], (SLICE_POINTS, k))
+    found = []
+    for j in range(k):
+        for end, inner in ((bounds[j, 1], pts[:, j].max()), (bounds[j, 0], pts[:, j].min())):
+            inward = 1.0 if inner > end else -1.0
+            n = int(math.floor(abs(inner - end) / SLICE_STEP))
+            outside = None  # the last value tried that holds no point (towards the bound)
+            for v in [end + inward * SLICE_STEP * i for i in range(n + 1)]:
+                x = _slice_point(problem, j, v, bounds, threshold, others)
+                if x is None:
+                    outside = v
+                    continue
+                if outside is not None:  # the set's edge lies between outside and v
+                    a, b = outside, v
+                    for _ in range(12):
+                        mid = 0.5 * (a + b)
+                        xm = _slice_point(problem, j, mid, bounds, threshold, others)
+                        if xm is None:
+                            a = mid
+                        else:
+                            b, x = mid, xm
+                found.append(x)
+                break
+    return np.array(found) if found else np.empty((0, k))
