@@ -22,9 +22,34 @@ def test_design_box_behnken_cli_writes_actual_levels(tmp_path, capsys):
     assert np.allclose(back.coded[:24], __import__("demcal.doe", fromlist=["x"]).box_behnken(4, 0))
 
 
+def _coded(out):
+    import io
+
+    df = pd.read_csv(io.StringIO(out), comment="#")
+    return df[[c for c in df.columns if c not in ("run", "std_order")]].to_numpy(float)
+
+
 def test_design_cli_other_kinds(capsys):
     assert main(["design", "ccd", "-k", "3", "--ccd-type", "face-centred", "--center", "2"]) == 0
-    assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 8 + 6 + 2
+    out = capsys.readouterr().out
+    assert len(out.strip().splitlines()) == 1 + 8 + 6 + 2
+    x = _coded(out)
+    # face-centred: axial points on the faces, every level in {-1, 0, 1}
+    assert np.abs(x).max() == 1.0 and set(np.round(x, 12).ravel()) == {-1.0, 0.0, 1.0}
+    assert (np.count_nonzero(x, axis=1) == 1).sum() == 6
+    # circumscribed (rotatable): axial distance alpha = (2^3)^(1/4) = 1.6818
+    alpha = 8 ** 0.25
+    assert main(["design", "ccd", "-k", "3", "--ccd-type", "circumscribed", "--center", "2"]) == 0
+    x = _coded(capsys.readouterr().out)
+    assert len(x) == 16 and np.abs(x).max() == pytest.approx(alpha) and np.abs(x).max() > 1
+    axial = x[np.count_nonzero(x, axis=1) == 1]
+    assert len(axial) == 6 and np.abs(axial).max(axis=1) == pytest.approx(np.full(6, alpha))
+    # inscribed: the circumscribed design scaled by 1/alpha, axial points at +-1
+    assert main(["design", "ccd", "-k", "3", "--ccd-type", "inscribed", "--center", "2"]) == 0
+    x = _coded(capsys.readouterr().out)
+    assert np.abs(x).max() == pytest.approx(1.0)
+    cube = x[np.count_nonzero(x, axis=1) == 3]
+    assert len(cube) == 8 and np.abs(cube) == pytest.approx(np.full((8, 3), 1 / alpha))
     assert main(["design", "plackett-burman", "-k", "7"]) == 0
     assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 8
     assert main(["design", "fractional", "-k", "5", "--fraction", "2"]) == 0

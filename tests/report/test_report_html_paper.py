@@ -9,6 +9,7 @@ import pytest
 from demcal.report.figures import (
     perturbation_figure, predicted_vs_actual_figure, save_figure, surface_figure,
 )
+from demcal.optimize import Goal, optimize
 from demcal.report.html import HtmlReport, format_number
 from demcal.report.paper import REPOSE, SLIDING, evaluate_points, fit_study, write_paper_report
 
@@ -72,3 +73,32 @@ def test_write_paper_report(tmp_path):
     sols = pd.read_csv(tmp_path / "tables" / "sliding_target_25p42_solutions.csv")
     assert (sols["predicted:sliding_angle_deg"] - 25.42).abs().max() < 0.01
     assert text.count("data:image/png;base64,") >= 10
+
+    # the reduced-model ANOVA is the reduced model's: backward elimination at 0.05 first
+    # removes the highest-order term with the largest p, D² of Table 5 (p = 0.9956) and
+    # FG of Table 9 (p = 0.664); the full-model ANOVA still has them
+    tables = tmp_path / "tables"
+    for study, term in (("repose", "D²"), ("sliding", "FG")):
+        full = pd.read_csv(tables / f"{study}_anova.csv", index_col=0)
+        reduced = pd.read_csv(tables / f"{study}_reduced_anova.csv", index_col=0)
+        assert term in full.index and term not in reduced.index, study
+        assert set(reduced.index) < set(full.index)
+
+    # solution-set ranges: low <= high inside the design levels (Tables 3 and 7), and the
+    # very ranges optimize() finds with the report's settings (6 starts, seed 0)
+    for study in (REPOSE, SLIDING):
+        model = fit_study(study)
+        for _, target in study.targets:
+            name = f"{study.key}_target_{target:g}".replace(".", "p")
+            df = pd.read_csv(tables / f"{name}_factor_ranges.csv", index_col=0)
+            res = optimize({study.response: model}, [Goal(study.response, "target", target)],
+                           n_starts=6, seed=0)
+            assert list(df.index) == [f.name for f in study.factors]
+            for f in study.factors:
+                row = df.loc[f.name]
+                lo, hi = row["solution set low"], row["solution set high"]
+                assert (row["design low"], row["design high"]) == (f.low, f.high)
+                assert f.low - 1e-9 <= lo <= hi <= f.high + 1e-9, (name, f.name)
+                assert (lo, hi) == pytest.approx(res.factor_ranges[f.name], rel=1e-12, abs=1e-15)
+    design_levels = {"A": (0.5, 0.7), "B": (0.3, 0.5), "C": (0.1, 0.3), "D": (0.0, 0.2)}
+    assert {f.name: (f.low, f.high) for f in REPOSE.factors} == design_levels  # Table 3

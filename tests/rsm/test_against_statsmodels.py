@@ -85,10 +85,13 @@ def test_quadratic_anova_matches_statsmodels(name, X, y):
         assert ours.coefficient_table.loc[ours_term, "vif"] == pytest.approx(
             variance_inflation_factor(exog, j), rel=1e-8)
 
-    # lack of fit = extra-SS test of the model against the cell-means model
-    if "Lack of Fit" in a.index:
-        cells = df.assign(cell=df[names].round(9).astype(str).agg("|".join, axis=1))
-        full = smf.ols("y ~ cell", cells).fit()  # string column: categorical
-        lof = anova_lm(smf.ols(formula, cells).fit(), full)
-        assert a.loc["Lack of Fit", "F"] == pytest.approx(lof["F"].iloc[1])
-        assert a.loc["Lack of Fit", "p"] == pytest.approx(lof["Pr(>F)"].iloc[1])
+    # lack of fit = extra-SS test of the model against the cell-means model; both data
+    # sets have replicated centre runs, so the row must be there
+    assert "Lack of Fit" in a.index and "Pure Error" in a.index
+    cells = df.assign(cell=df[names].round(9).astype(str).agg("|".join, axis=1))
+    full = smf.ols("y ~ cell", cells).fit()  # string column: categorical
+    lof = anova_lm(smf.ols(formula, cells).fit(), full)
+    assert a.loc["Lack of Fit", "df"] == lof["df_diff"].iloc[1]
+    assert a.loc["Pure Error", "df"] == lof["df_resid"].iloc[1]
+    assert a.loc["Lack of Fit", "F"] == pytest.approx(lof["F"].iloc[1])
+    assert a.loc["Lack of Fit", "p"] == pytest.approx(lof["Pr(>F)"].iloc[1])

@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from demcal._cliutil import add_json, add_model_options, add_runs_command, read_runs_from_args
-from demcal.errors import ConfigError
+from demcal.errors import ConfigError, DataError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -84,7 +84,7 @@ def run(args) -> int:
             out += ["", "Lack-of-fit tests", _fmt(s.lack_of_fit)]
         out += ["", "Model summary statistics", _fmt(s.model_stats),
                 f"Suggested model: {s.suggested or 'none significant'}"]
-    except Exception:  # the summary is a courtesy; the fit above stands on its own
-        pass
+    except DataError as exc:  # too few runs for the summary; the fit above stands on its own
+        print(f"demcal: note: fit summary left out: {exc}", file=sys.stderr)
     print("\n".join(out))
     return 0
