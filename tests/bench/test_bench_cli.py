@@ -8,13 +8,55 @@ from demcal.bench.registry import get_experiment
 from demcal.cli import main
 
 
-def test_help_lists_every_key_with_default_and_unit(capsys):
-    assert main(["bench", "repose-funnel", "--help"]) == 0
+def _settings_table(out: str) -> list[dict[str, str]]:
+    """The rows of the settings table of ``bench NAME --help``, cut at the header's columns."""
+    lines = out.splitlines()
+    at = next(i for i, line in enumerate(lines) if line.split()[:2] == ["KEY", "DEFAULT"])
+    header = lines[at]
+    names = ["KEY", "DEFAULT", "UNIT", "ALLOWED", "DESCRIPTION"]
+    starts = [header.index(name) for name in names]
+    assert starts == sorted(starts) and header[:starts[0]] == "  "
+    rows = []
+    for line in lines[at + 1:]:
+        if not line.strip():
+            break
+        cells = [line[a:b].strip() for a, b in zip(starts, starts[1:] + [None])]
+        rows.append(dict(zip(names, cells)))
+    return rows
+
+
+def _expected_default(value) -> str:
+    """A default as the help documents it: floats with ``:g``, everything else ``str``."""
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+@pytest.mark.parametrize("name, profile", [("repose-funnel", "quick"), ("repose-funnel", "tiny"),
+                                           ("repose-cylinder", "quick"), ("incline", "quick"),
+                                           ("impact", "paper")])
+def test_help_lists_every_key_with_default_and_unit(capsys, name, profile):
+    assert main(["bench", name, "--profile", profile, "--help"]) == 0
     out = capsys.readouterr().out
-    for key, s in get_experiment("repose-funnel").settings("quick").items():
-        line = next(line for line in out.splitlines() if line.strip().startswith(key + " "))
-        assert s.unit in line
-    assert "particle.static_friction" in out and "0.4" in out
+    settings = get_experiment(name).settings(profile)
+    rows = _settings_table(out)
+    assert [row["KEY"] for row in rows] == list(settings)
+    for row, s in zip(rows, settings.values()):
+        assert row["DEFAULT"] == _expected_default(s.default), s.key
+        assert row["UNIT"] == s.unit, s.key
+        if s.choices:
+            assert row["ALLOWED"] == "|".join(s.choices), s.key
+        assert row["DESCRIPTION"] == s.help, s.key
+
+
+def test_help_shows_the_papers_defaults(capsys):
+    """Known values (paper Tables 2 and 3, centre point) in the DEFAULT column."""
+    assert main(["bench", "repose-funnel", "--help"]) == 0
+    rows = {row["KEY"]: row for row in _settings_table(capsys.readouterr().out)}
+    assert rows["particle.static_friction"]["DEFAULT"] == "0.4"
+    assert rows["particle.rolling_friction"]["DEFAULT"] == "0.2"
+    assert rows["particle.restitution"]["DEFAULT"] == "0.6"
+    assert rows["particle.poisson_ratio"]["DEFAULT"] == "0.46"
+    assert rows["geometry.scale"]["DEFAULT"] == "4"
+    assert rows["particle.density"]["UNIT"] == "kg/m3"
 
 
 def test_list(capsys):

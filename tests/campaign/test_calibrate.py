@@ -72,7 +72,7 @@ def test_unreachable_target_is_said_plainly(calibrated):
     assert set(result.reference_predicted) == {"repose_angle_deg"}
 
 
-def test_calibration_json_and_no_rerun(calibrated):
+def test_calibration_json_and_no_rerun(calibrated, tmp_path, monkeypatch):
     campaign, cal = calibrated
     data = json.loads((campaign.workdir / "calibration.json").read_text())
     assert [c["name"] for c in data["conditions"]] == ["6.26 %", "14.1 %", "too low"]
@@ -80,6 +80,19 @@ def test_calibration_json_and_no_rerun(calibrated):
     assert [c.chosen for c in again.conditions] == [c.chosen for c in cal.conditions]
     with Store(campaign.store_path, readonly=True) as store:
         assert store.counts()["done"] == 29 + 3 * 2
+        finished = {r.key: r.finished_at for r in store.records()}
+    # calibrating again with simulation on runs nothing: the verification runs are done.
+    # Each execution of the test double drops a marker file (campaign_testbench.py).
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setenv("DEMCAL_TEST_MARKERS", str(markers))
+    rerun = calibrate(campaign, workers=2, simulate=True, progress=False)
+    assert list(markers.iterdir()) == []
+    assert [c.chosen for c in rerun.conditions] == [c.chosen for c in cal.conditions]
+    assert [[v.simulated for v in c.verdicts] for c in rerun.conditions] == \
+        [[v.simulated for v in c.verdicts] for c in cal.conditions]
+    with Store(campaign.store_path, readonly=True) as store:
+        assert {r.key: r.finished_at for r in store.records()} == finished
 
 
 @pytest.fixture(scope="module")

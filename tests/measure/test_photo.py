@@ -40,11 +40,24 @@ def test_tilt_cancels_in_the_mean_but_not_per_flank():
 
 def test_file_roi_base_line_scale_and_png(tmp_path):
     photo = synthetic_photo(33.0, seed=2)
+    # the light box does not fill the picture: a dark frame (the lab around it) on top
+    # and both sides, standing on the base line, all of it outside the region of interest
+    image = photo.image.copy()
+    image[:96] = image[:int(photo.base_row) + 1, :56] = image[:int(photo.base_row) + 1, 764:] = 35
+    with pytest.raises(DataError):  # without the region the frame spoils the measurement
+        measure_photo(image, base_y=photo.base_row)
     path = tmp_path / "heap.png"
-    io.imsave(path, photo.image)
+    io.imsave(path, image)
     png = tmp_path / "out" / "heap_fit.png"
-    m = measure_photo(path, roi=(60, 100, 760, 560), base_y=photo.base_row, mm_per_px=0.5, png=png)
+    x0 = 60
+    m = measure_photo(path, roi=(x0, 100, 760, 560), base_y=photo.base_row, mm_per_px=0.5, png=png)
     assert m.angle_deg == pytest.approx(33.0, abs=0.5)
+    assert m.base_row == photo.base_row
+    # x is measured from the region's left edge: the flanks meet the base line where the
+    # drawn heap's feet are, half_width = 250 px either side of the apex column
+    for flank, foot_col in ((m.fit.left, photo.apex_col - 250), (m.fit.right, photo.apex_col + 250)):
+        assert -flank.intercept / flank.slope == pytest.approx((foot_col - x0) * 0.5, abs=2.0)
+        assert flank.x.min() >= 0 and flank.x.max() <= (760 - x0) * 0.5
     assert m.unit == "mm"
     assert m.height == pytest.approx(0.5 * 250 * np.tan(np.radians(33.0)), rel=0.08)
     assert png.stat().st_size > 10_000

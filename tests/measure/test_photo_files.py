@@ -28,7 +28,18 @@ def test_batch_csv_and_json_match_the_pandas_table(tmp_path):
     bad = tmp_path / "bad.png"
     bad.write_text("not a picture")
     batch = measure_photos([paths[0], bad, paths[1]], out_dir=tmp_path / "out")
+    # the table holds the measured angles: the photos' known angles, in the order given
+    table = batch.table
+    assert table["photo"].tolist() == [str(paths[0]), str(bad), str(paths[1])]
+    assert table.loc[[0, 2], "angle_deg"].tolist() == pytest.approx([28.0, 35.0], abs=0.5)
+    assert table.loc[1, ["angle_deg", "left_deg", "right_deg"]].isna().all()
+    for row, m in zip(table.loc[[0, 2]].itertuples(), batch.measurements):
+        assert (row.angle_deg, row.left_deg, row.right_deg, row.r2) == (
+            m.angle_deg, m.left_deg, m.right_deg, m.r2)
     batch.write_csv(tmp_path / "table.csv")
+    read = pd.read_csv(tmp_path / "table.csv")
+    assert read["photo"].tolist() == table["photo"].tolist()
+    assert read.loc[[0, 2], "angle_deg"].tolist() == pytest.approx([28.0, 35.0], abs=0.5)
     expected = tmp_path / "pandas.csv"
     batch.table.to_csv(expected, index=False)
     assert (tmp_path / "table.csv").read_text() == expected.read_text()
