@@ -114,7 +114,14 @@ def test_asymmetric_clump_conserves_l_and_energy(backend):
     sim = _spin_up(tpl, 1e-5, backend)
     l0 = sim.state.angular_momenta[0].copy()
     e0 = sim.kinetic_energy()
+    q0 = sim.state.quaternions[0].copy()
+    w0 = sim.state.omegas[0].copy()
     sim.run(steps=10_000)
+    # the body really tumbles (|omega| = 13.4 rad/s over 0.1 s: it turns by 1.33 rad and
+    # omega moves by 0.16 |omega0|): a frozen orientation keeps L and E trivially
+    turned = (_rotation(sim.state.quaternions[0]) * _rotation(q0).inv()).magnitude()
+    assert turned > 1.0
+    assert np.linalg.norm(sim.state.omegas[0] - w0) > 0.1 * np.linalg.norm(w0)
     assert np.linalg.norm(sim.state.angular_momenta[0] - l0) <= 1e-12 * np.linalg.norm(l0)
     assert sim.kinetic_energy() == pytest.approx(e0, rel=1e-4)
 

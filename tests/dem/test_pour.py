@@ -66,16 +66,42 @@ def test_pour_2000_comes_to_rest(backend):
     _settle(backend, 2000, 0.06, 1.2, rolling="type_c")
 
 
+def _active_history(rows):
+    """Active contact slots of a pair (``sim._p``) or wall (``sim._q``) list and their
+    tangential spring history (history columns 0:3)."""
+    n = int(rows["start"][-1])
+    return rows["hist"][:n][rows["act"][:n], :3]
+
+
 def test_checkpoint_restart_is_bit_identical(backend, tmp_path):
-    a = pour(backend, 200, 0.03, template=two_sphere_paper(resolution=64).scaled(0.3))
-    a.run(steps=300)
+    # The checkpoint is taken in the middle of the heap's collapse, with hundreds of
+    # pair and wall contacts whose tangential springs are loaded: a restart that lost
+    # the contact history (or the wall contacts) would diverge within a few steps.
+    def build():
+        sim = pour(backend, 200, 0.03, template=two_sphere_paper(resolution=64).scaled(0.3),
+                   fill=2.0)
+        sim.gravity[:] = (0.0, 0.0, -80.0)   # a heap within a few thousand steps
+        return sim
+
+    a = build()
+    a.run(steps=3500)
+    pair_hist, wall_hist = _active_history(a._p), _active_history(a._q)
+    assert len(pair_hist) > 150 and len(wall_hist) > 50          # many contacts of each kind
+    assert (np.abs(pair_hist).sum(axis=1) > 0).sum() > 100       # with tangential history
+    assert (np.abs(wall_hist).sum(axis=1) > 0).sum() > 40
+    assert np.abs(a.wall_forces()["box"][0][2]) > 0.5            # the box carries the heap
     a.save_checkpoint(tmp_path / "chk.npz")
     a.run(steps=700)
-    b = pour(backend, 200, 0.03, template=two_sphere_paper(resolution=64).scaled(0.3))
+    b = build()
     b.load_checkpoint(tmp_path / "chk.npz")
     b.run(steps=700)
-    for name in ("positions", "velocities", "quaternions", "angular_momenta", "forces"):
+    for name in ("positions", "velocities", "quaternions", "angular_momenta", "forces",
+                 "torques"):
         assert np.array_equal(getattr(a.state, name), getattr(b.state, name)), name
+    for x, y in zip(a.contacts(), b.contacts()):
+        assert np.array_equal(x, y)
+    for x, y in zip(a.wall_forces()["box"], b.wall_forces()["box"]):
+        assert np.array_equal(x, y)
     assert a.time == b.time
 
 

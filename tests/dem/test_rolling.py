@@ -8,9 +8,20 @@ Closed forms:
   a = -(5/7) mu_r g (energy balance as in Ai et al. 2011, Powder Technol. 206, 269,
   section 3.1, their Eq. 20 for model A with I = 2/5 m R^2).
 * The same holds for the relative-velocity model (cdt) against a fixed floor (R* = R).
+* Relative-velocity model (cdt, LIGGGHTS ``rolling_friction cdt``; Ai et al. 2011 model
+  A with the relative angular velocity): between two spheres the torque is
+  tau_i = -mu_r Fn R* w_r/|w_r| with w_r = w_i - w_j and R* = R_i R_j/(R_i + R_j), and
+  tau_j = -tau_i. Two equal spheres stacked on a frictionless floor, counter-rotating
+  about a horizontal axis (w_i = -w_j, pure rolling at their contact, so no tangential
+  force) with Fn = m g (the weight of the top one) and R* = R/2 each spin down at
+  |dw/dt| = mu_r m g (R/2) / (2/5 m R^2) = (5/4) mu_r g / R. Type A uses each body's
+  own lever (about R) instead, twice the torque.
 * Type C (elastic-plastic spring-dashpot, Ai et al. 2011 model C) holds a sphere at rest
-  on a slope while tan(theta) < mu_r (the limiting moment mu_r R Fn balances
-  m g sin(theta) R with Fn = m g cos(theta)); above it the sphere rolls away.
+  on a slope while tan(theta) < mu_r (the limiting moment M_m = mu_r R Fn, their
+  Eq. 12, balances m g sin(theta) R with Fn = m g cos(theta)); above it the sphere
+  rolls away with the constant moment M_m, so rolling without slip (I = 2/5 m R^2)
+  gives a = (5/7) g (sin(theta) - mu_r cos(theta)). The slope is bracketed at
+  tan(theta) = 0.9 mu_r and 1.1 mu_r, so a limiting moment off by 10 % fails.
 """
 
 import math
@@ -54,19 +65,70 @@ def test_rolling_deceleration(backend, rolling_model):
     assert a == pytest.approx(-5.0 / 7.0 * mu_r * G, rel=0.02)
 
 
+@pytest.mark.parametrize("rolling_model", ["cdt", "type_a"])
+def test_rolling_torque_between_counter_rotating_spheres(backend, rolling_model):
+    """Sphere on sphere, where cdt (R*, w_i - w_j) and type_a (own lever, own w) differ:
+    the closed-form torque on both bodies and the spin decay of both (see the module
+    docstring; Ai et al. 2011, Powder Technol. 206, 269, model A, Eq. 4-5)."""
+    mu_r = 0.1
+    w0 = 20.0
+    # rolling resistance only between the spheres; the floor is frictionless, so the
+    # bottom sphere spins freely on it and the stack stays exactly vertical
+    inter = {(0, 0): Interaction(restitution=0.3, static_friction=0.8, rolling_friction=mu_r),
+             "default": Interaction(restitution=0.3, static_friction=0.0,
+                                    rolling_friction=0.0)}
+    sim = Simulation([SOFT, SOFT_WALL], inter, walls=floor(), gravity=(0, 0, -G),
+                     rolling_model=rolling_model, backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, RADIUS], [0, 0, 3 * RADIUS]])
+    sim.run(duration=0.05)
+    st = sim.state
+    sign = np.array([-1.0, 1.0])          # bottom spins -w0, top +w0 about y
+    for k in range(2):
+        st.omegas[k] = [0, sign[k] * w0, 0]
+        st.angular_momenta[k] = [0, sign[k] * w0 * st.inertias[k, 0], 0]
+    delta = 2 * RADIUS - (st.positions[1, 2] - st.positions[0, 2])
+    lever = {"cdt": RADIUS / 2, "type_a": RADIUS - delta / 2}[rolling_model]
+    m = st.masses[1]
+    torque = mu_r * m * G * lever                       # Fn = m g
+    decel = torque / st.inertias[1, 0]
+    ts, ws = [], []
+    for _ in range(12):
+        sim.run(duration=0.0025)
+        ts.append(sim.time)
+        ws.append(st.omegas[:, 1].copy())
+        # torque opposes each body's spin: -sign * torque on both
+        assert st.torques[:, 1] == pytest.approx(-sign * torque, rel=1e-3)
+    ws = np.array(ws)
+    assert np.all(ws * sign > 0), "spins must not reach zero in the window"
+    slopes = np.polyfit(ts, ws, 1)[0]
+    assert slopes == pytest.approx(-sign * decel, rel=1e-3)
+    if rolling_model == "cdt":
+        assert decel == pytest.approx(1.25 * mu_r * G / RADIUS, rel=1e-9)
+    # the stack neither slides nor tips
+    assert np.abs(st.positions[:, :2]).max() < 1e-9
+
+
 def test_type_c_rests_below_rolling_limit(backend):
     mu_r = 0.2
-    theta = 0.7 * math.atan(mu_r)
+    theta = math.atan(0.9 * mu_r)
     sim = settled(backend, "type_c", mu_r, gravity=tilted_gravity(theta))
-    sim.state.velocities[0] = [0.05, 0, 0]
+    sim.state.velocities[0] = [0.01, 0, 0]     # a downhill nudge
     sim.run(duration=0.3)
     assert abs(sim.state.velocities[0, 0]) < 1e-4
     assert abs(sim.state.omegas[0, 1]) * RADIUS < 1e-4
 
 
 def test_type_c_rolls_above_rolling_limit(backend):
+    """Above the limit the full moment mu_r R Fn resists: a = (5/7) g (sin - mu_r cos)."""
     mu_r = 0.2
-    theta = 1.5 * math.atan(mu_r)
+    theta = math.atan(1.1 * mu_r)
     sim = settled(backend, "type_c", mu_r, gravity=tilted_gravity(theta))
-    sim.run(duration=0.3)
-    assert sim.state.velocities[0, 0] > 0.1
+    ts, vs = [], []
+    for _ in range(30):
+        sim.run(duration=0.01)
+        ts.append(sim.time)
+        vs.append(sim.state.velocities[0, 0])
+    a = np.polyfit(ts[10:], vs[10:], 1)[0]
+    assert vs[-1] > 0.03
+    assert a == pytest.approx(5.0 / 7.0 * G * (math.sin(theta) - mu_r * math.cos(theta)),
+                              rel=0.03)

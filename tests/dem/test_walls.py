@@ -5,6 +5,9 @@
   after the transient its velocity is u and the floor force is again m g.
 * A plate rotating about a horizontal hinge moves its surface at omega x r; a particle
   resting on it far from the hinge is carried at that speed.
+* A wall's reported torque about its origin is r x F, r from the origin to the contact.
+* Only friction with a moving surface can drive a particle along that surface: a belt
+  (a plane sliding in its own plane) and a turntable drag what rests on them.
 """
 
 import math
@@ -23,14 +26,24 @@ G = 9.81
 
 
 def test_resting_sphere_loads_floor_with_its_weight(backend):
+    # the sphere rests away from the floor's origin (its point): the floor's torque about
+    # that origin is r x F, r from the origin to the contact point (mid-overlap)
     walls = WallSet([Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="floor")])
     sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3), walls=walls,
                      backend=backend)
-    sim.add_particles(RADIUS, [[0, 0, RADIUS]])
+    x0, y0 = 0.03, -0.02
+    sim.add_particles(RADIUS, [[x0, y0, RADIUS]])
     sim.run(duration=0.1)
     force, torque = sim.wall_forces()["floor"]
     m = sim.state.masses[0]
     assert force == pytest.approx([0, 0, -m * G], abs=1e-6 * m * G)
+    p = sim.state.positions[0]
+    delta = RADIUS - p[2]                       # overlap with the floor z = 0
+    assert delta > 0
+    r = p - np.array([0.0, 0.0, RADIUS - 0.5 * delta])
+    expected = np.cross(r, force)               # = (-y0 m g, x0 m g, 0)
+    assert np.abs(expected).max() > 0.5 * 0.02 * m * G
+    assert torque == pytest.approx(expected, abs=1e-9 * m * G * np.linalg.norm(r))
 
 
 def test_translating_floor_carries_particle(backend):
@@ -108,6 +121,63 @@ def test_rotating_plate_moves_particle_with_its_surface(backend):
     speed = w * math.hypot(length, RADIUS)
     assert np.linalg.norm(v) == pytest.approx(speed, rel=0.03)
     assert v[2] > 0
+
+
+def test_belt_drags_resting_sphere_into_rolling_at_two_sevenths_of_its_speed(backend):
+    """A sphere at rest on a belt (a plane sliding in its own plane at u) is dragged by
+    friction alone. In the belt's frame it is a ball launched sliding at -u without
+    spin, which ends rolling at 5/7 of its launch speed (angular momentum about the
+    contact point is conserved: m v R + I w with I = 2/5 m R^2; the bowling-ball
+    problem, Kleppner & Kolenkow, An Introduction to Mechanics, ch. 7). Back in the lab
+    its centre moves at 2/7 u and its contact point at u, the belt's velocity."""
+    u = 0.05
+    walls = WallSet([Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="belt",
+                           motion=Translation(velocity=(u, 0, 0), start=0.03))])
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.5,
+                                                    rolling_friction=0.0),
+                     walls=walls, backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, RADIUS]])
+    sim.run(duration=0.03)
+    x0 = sim.state.positions[0, 0]
+    sim.run(duration=0.05)          # slip ends after ~ 5/7 u / (mu g) = 7 ms
+    st = sim.state
+    v, w = st.velocities[0], st.omegas[0]
+    contact = v + np.cross(w, [0.0, 0.0, -RADIUS])
+    assert v == pytest.approx([2.0 / 7.0 * u, 0, 0], abs=0.005 * u)
+    assert contact == pytest.approx([u, 0, 0], abs=0.005 * u)
+    # dragged along: about 2/7 u t less the short slip phase
+    assert st.positions[0, 0] - x0 == pytest.approx(2.0 / 7.0 * u * 0.05, rel=0.05)
+
+
+def test_turntable_carries_block_round_with_its_surface(backend):
+    """A flat block on a disk turning at W about the vertical axis co-rotates with it
+    (friction supplies the centripetal force m W^2 r0 = 0.08 m/s^2 m, far below mu_s m g;
+    Coulomb): its centre moves at the surface velocity W x r and it spins at W."""
+    from scipy.spatial.transform import Rotation as R
+
+    from demcal.particles.templates import ParticleTemplate
+
+    r = RADIUS
+    block = ParticleTemplate.from_spheres([[x, y, 0.0, r] for x in (-r, r) for y in (-r, r)],
+                                          name="block", resolution=64)
+    q = R.from_matrix(block.rotation).as_quat()     # thin direction along z
+    w_table, r0, t_start = 2.0, 0.02, 0.03
+    table = Disk(centre=(0, 0, 0), normal=(0, 0, 1), radius=0.05, material=1, name="table",
+                 motion=Rotation(point=(0, 0, 0), axis=(0, 0, 1), angular_speed=w_table,
+                                 start=t_start))
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.5,
+                                                    rolling_friction=0.0),
+                     walls=WallSet([table]), backend=backend)
+    sim.add_particles(block, [[r0, 0, r]], orientations=[[q[3], q[0], q[1], q[2]]])
+    sim.run(duration=t_start + 0.15)
+    st = sim.state
+    p, v, w = st.positions[0], st.velocities[0], st.omegas[0]
+    surface = np.cross([0.0, 0.0, w_table], p)      # the table's velocity under the block
+    assert np.linalg.norm(surface) == pytest.approx(w_table * r0, rel=0.01)
+    assert v == pytest.approx(surface, abs=0.01 * w_table * r0)
+    assert w == pytest.approx([0, 0, w_table], abs=0.01 * w_table)
+    # it went round with the table (less a lag of ~0.01 rad from the start-up slip)
+    assert math.atan2(p[1], p[0]) == pytest.approx(w_table * 0.15, abs=0.02)
 
 
 def _lifted_cylinder(backend, threads=1):

@@ -6,7 +6,7 @@ from stl import Mode
 from stl import mesh as stl_mesh
 
 from demcal.errors import ConfigError, DataError
-from demcal.geometry import Box, TriangleMesh, Translation, WallSet
+from demcal.geometry import Box, Rotation, TriangleMesh, Translation, WallSet
 from demcal.geometry.kernels import wall_distance
 
 
@@ -34,6 +34,35 @@ def test_cube_mesh_matches_box():
         assert _min_distance(mesh, x) == pytest.approx(_min_distance(box, x), abs=1e-12)
     assert mesh.aabb[:, :3].min(axis=0) == pytest.approx([0, 0, 0])
     assert mesh.aabb[:, 3:].max(axis=0) == pytest.approx([1, 1, 1])
+    _assert_triangle_aabbs(mesh)
+
+
+def test_moved_mesh_aabbs_hold_their_triangles():
+    """After a rotation plus translation each triangle row's AABB is still the box of its
+    three moved vertices (WallSet.aabb carries no margin: the neighbour search adds the
+    skin)."""
+    v, f = _cube_triangles()
+    motion = Rotation(point=(0.5, 0.5, 0.0), axis=(1, 2, 3), angular_speed=0.7)
+    ws = WallSet([TriangleMesh(v, f, motion=motion)])
+    t = 2.0
+    ws.update(t)
+    _assert_triangle_aabbs(ws)
+    rot, trans = motion.transform(t)
+    moved = v[f] @ rot.T + trans
+    assert ws.aabb[:, :3] == pytest.approx(moved.min(axis=1), abs=1e-12)
+    assert ws.aabb[:, 3:] == pytest.approx(moved.max(axis=1), abs=1e-12)
+
+
+def _assert_triangle_aabbs(ws, tol=1e-12):
+    """Each triangle row's vertices and centroid lie inside that row's AABB, and the box
+    is the vertices' box (tight: no margin in WallSet.aabb)."""
+    for w in range(len(ws)):
+        tri = ws.params[w, 0:9].reshape(3, 3)
+        pts = np.vstack([tri, tri.mean(axis=0)])
+        lo, hi = ws.aabb[w, :3], ws.aabb[w, 3:]
+        assert np.all(pts >= lo - tol) and np.all(pts <= hi + tol), f"triangle row {w}"
+        assert lo == pytest.approx(tri.min(axis=0), abs=tol)
+        assert hi == pytest.approx(tri.max(axis=0), abs=tol)
 
 
 @pytest.mark.parametrize("mode", [Mode.ASCII, Mode.BINARY])

@@ -21,6 +21,7 @@ from demcal.geometry import (
     TriangleMesh,
     WallSet,
 )
+from demcal.geometry import kernels as K
 from demcal.geometry.kernels import wall_distance
 from demcal.geometry.motion import rotation_matrix
 
@@ -92,8 +93,62 @@ def _all_kinds(motion):
     ]
 
 
+def _perp_basis(a):
+    """Two unit vectors orthogonal to the unit vector a and to each other."""
+    t = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(a, t)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(a, e1)
+
+
+def surface_points(kind, p, n=24):
+    """Points on the surface of one kernel row (world frame, layouts of
+    ``demcal.geometry.kernels``): rims, corners and interior samples."""
+    phi = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    s = np.linspace(0.0, 1.0, 5)
+    if kind in (K.DISK, K.CYLINDER, K.CONE):
+        c, a = p[0:3], p[3:6]
+        e1, e2 = _perp_basis(a)
+        ring = np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
+        if kind == K.DISK:
+            rho = p[7] + s * (p[6] - p[7])                 # inner to outer radius
+            return (c + rho[:, None, None] * ring).reshape(-1, 3)
+        if kind == K.CYLINDER:
+            r1 = r2 = p[6]
+            length = p[7]
+        else:
+            r1, r2, length = p[6], p[7], p[8]
+        r = r1 + s * (r2 - r1)
+        return (c + (s * length)[:, None, None] * a + r[:, None, None] * ring).reshape(-1, 3)
+    if kind == K.RECT:
+        al, be = np.meshgrid(np.linspace(-1, 1, 5), np.linspace(-1, 1, 5))
+        return p[0:3] + al.reshape(-1, 1) * p[3:6] + be.reshape(-1, 1) * p[6:9]
+    if kind == K.TRIANGLE:
+        a, b, c = p[0:3], p[3:6], p[6:9]
+        bary = [(1, 0, 0), (0, 1, 0), (0, 0, 1), (0.5, 0.5, 0), (0, 0.5, 0.5), (0.2, 0.3, 0.5)]
+        return np.array([u * a + v * b + w * c for u, v, w in bary])
+    raise AssertionError(f"no surface sampler for kind {kind}")
+
+
+def assert_aabb_holds_surface(ws, tol=1e-12):
+    """Every sampled surface point of each bounded row lies on the row (d = 0) and inside
+    its AABB. The AABB carries no margin of its own (``WallSet.aabb``: xmin..zmax; the
+    neighbour search adds the skin), so the tolerance is round-off only."""
+    for w in range(len(ws)):
+        if ws.kind[w] == K.PLANE:
+            assert np.all(np.isinf(ws.aabb[w]))
+            continue
+        pts = surface_points(ws.kind[w], ws.params[w])
+        for x in pts:
+            assert wall_distance(ws.kind[w], ws.params[w], *x)[0] == pytest.approx(0.0, abs=1e-9)
+        lo, hi = ws.aabb[w, :3], ws.aabb[w, 3:]
+        assert np.all(pts >= lo - tol) and np.all(pts <= hi + tol), (
+            f"row {w} ({K.KIND_NAMES[ws.kind[w]]}): surface outside its AABB")
+
+
 def test_moved_rows_give_moved_distances():
-    """A rigid motion of wall and point together leaves d unchanged and rotates n."""
+    """A rigid motion of wall and point together leaves d unchanged and rotates n, and
+    each moved row's AABB still holds its whole surface (rims, corners, interior)."""
     motion = Rotation(point=(0.2, -0.3, 0.1), axis=(1, -1, 2), angular_speed=0.9)
     moving = WallSet(_all_kinds(motion))
     fixed = WallSet(_all_kinds(None))
@@ -109,10 +164,8 @@ def test_moved_rows_give_moved_distances():
             d1, *n1 = wall_distance(moving.kind[w], moving.params[w], *y)
             assert d1 == pytest.approx(d0, abs=1e-12)
             assert np.array(n1) == pytest.approx(rot @ np.array(n0), abs=1e-9)
-    for w in range(len(moving)):  # bounding boxes contain the moved geometry
-        if moving.kind[w] != 0:
-            x = moving.params[w, 0:3]
-            assert np.all(x >= moving.aabb[w, :3] - 1e-12) and np.all(x <= moving.aabb[w, 3:] + 1e-12)
+    assert_aabb_holds_surface(moving)  # bounding boxes contain the moved geometry
+    assert_aabb_holds_surface(fixed)
 
 
 def test_wallset_velocity_at_contact_point():
