@@ -78,9 +78,17 @@ def test_bad_file_names_key_and_line(campaign_file, case):
 
 
 def test_missing_conditions_table():
-    text = "[campaign]\nname = 'x'\n[experiment]\ntest = 'test-heap'\n"
-    with pytest.raises(ConfigError, match=r"missing \[\[factors\]\]"):
+    # everything else a campaign needs is there, so only the conditions are missing
+    text = ("[campaign]\nname = 'x'\n[experiment]\ntest = 'test-heap'\n"
+            "[[factors]]\nname = 'A'\nparameter = 'particle.static_friction'\nlow = 0.3\nhigh = 0.5\n")
+    with pytest.raises(ConfigError) as info:
         parse_campaign(text, "c.toml")
+    # a table that is not there has no line: the sentence names the file alone
+    assert str(info.value) == "c.toml: missing [[conditions]]; a campaign needs [[conditions]]."
+    text = "[campaign]\nname = 'x'\n[experiment]\ntest = 'test-heap'\n"
+    with pytest.raises(ConfigError) as info:
+        parse_campaign(text, "c.toml")
+    assert str(info.value) == "c.toml: missing [[factors]]; a campaign needs [[factors]]."
 
 
 def test_design_point_outside_a_setting_range(campaign_file):

@@ -53,12 +53,15 @@ def test_another_owner_cannot_write_my_claim(tmp_path):
         assert mine.counts()["pending"] == 2
 
 
-def _claim_all(path, queue):
+def _claim_all(path, queue, barrier):
     store = Store(path)
     got = []
+    barrier.wait(timeout=60)  # all workers start claiming at once, not one after another
     while (record := store.claim()) is not None:
         got.append(record.id)
+        time.sleep(0.001)  # a little work per run, so that the claims interleave
         store.finish(record.id, {"responses": {"a": 1.0}}, None, "v")
+    store.close()
     queue.put(got)
 
 
@@ -68,14 +71,18 @@ def test_concurrent_claims_never_overlap(tmp_path):
         store.add(specs(200))
     ctx = multiprocessing.get_context("spawn")
     queue = ctx.Queue()
-    procs = [ctx.Process(target=_claim_all, args=(path, queue)) for _ in range(4)]
+    workers = 4
+    barrier = ctx.Barrier(workers)
+    procs = [ctx.Process(target=_claim_all, args=(path, queue, barrier)) for _ in range(workers)]
     for p in procs:
         p.start()
     claimed = [queue.get(timeout=120) for _ in procs]
     for p in procs:
         p.join(timeout=60)
     ids = [i for got in claimed for i in got]
+    assert len(ids) == len(set(ids)), "a run was claimed twice"
     assert sorted(ids) == list(range(1, 201))  # each run claimed exactly once
+    assert sum(1 for got in claimed if got) >= 3, [len(got) for got in claimed]  # they did compete
     with Store(path) as store:
         assert store.counts() == {"pending": 0, "running": 0, "done": 200, "failed": 0}
         assert store.integrity() == "ok"

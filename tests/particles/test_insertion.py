@@ -9,8 +9,11 @@ from demcal.particles.insertion import BoxRegion, CylinderRegion, Inserter, inse
 from demcal.particles.templates import two_sphere_paper
 
 
-def _min_gap(pos, rad):
-    pairs = cKDTree(pos).query_pairs(2 * rad.max(), output_type="ndarray")
+def _min_gap(pos, rad, reach=0.0):
+    """Smallest surface-to-surface gap over pairs whose centres are within
+    ``2 rad.max() + reach`` (inf if there are none): ``reach`` must exceed the gap
+    expected, or pairs a gap apart are never looked at."""
+    pairs = cKDTree(pos).query_pairs(2 * rad.max() + reach, output_type="ndarray")
     if len(pairs) == 0:
         return np.inf
     d = np.linalg.norm(pos[pairs[:, 0]] - pos[pairs[:, 1]], axis=1)
@@ -37,8 +40,12 @@ def test_box_insertion_no_overlap_inside_and_deterministic():
 def test_cylinder_insertion_of_clumps_with_gap():
     t = two_sphere_paper()
     region = CylinderRegion((0.1, 0.0, 0.2), radius=0.1, height=0.2)
-    ins = insert(region, 300, template=t, sizes=1.0, seed=2, gap=0.001)
-    assert _min_gap(ins.positions, ins.radii) >= 0.001 - 1e-12
+    gap = 0.001
+    ins = insert(region, 300, template=t, sizes=1.0, seed=2, gap=gap)
+    # look beyond the gap (+ 10 mm), so that neighbours a gap apart are found
+    smallest = _min_gap(ins.positions, ins.radii, reach=gap + 0.01)
+    assert np.isfinite(smallest), "no neighbours found: the check saw no pair"
+    assert smallest >= gap - 1e-12
     rho = np.hypot(ins.positions[:, 0] - 0.1, ins.positions[:, 1])
     assert np.all(rho + ins.radii <= 0.1 + 1e-12)
     assert np.all(ins.positions[:, 2] - ins.radii >= 0.2) and np.all(ins.positions[:, 2] + ins.radii <= 0.4)
@@ -92,8 +99,17 @@ def test_inserter_all_at_start():
 
 
 def test_random_quaternions_are_uniform():
-    q = random_quaternions(200_000, np.random.default_rng(0))
+    n = 200_000
+    q = random_quaternions(n, np.random.default_rng(0))
     assert np.allclose(np.linalg.norm(q, axis=1), 1.0)
+    # uniform on S^3 (each q_i, by symmetry): E[q_i] = 0, E[q_i^2] = 1/4 and
+    # E[q_i^4] = 3 / (4 * 6) = 1/8, so sd(q_i) = 1/2 and sd(q_i^2) = sqrt(1/8 - 1/16) = 1/4;
+    # five standard errors of the sample means. This also sees the spin about e_z,
+    # which the moments of the mapped e_z below do not.
+    se_mean, se_square = 0.5 / np.sqrt(n), 0.25 / np.sqrt(n)
+    for i in range(4):
+        assert q[:, i].mean() == pytest.approx(0.0, abs=5 * se_mean), i
+        assert (q[:, i] ** 2).mean() == pytest.approx(0.25, abs=5 * se_square), i
     # a uniform rotation maps e_z to a uniformly distributed direction: <z'> = 0, <z'^2> = 1/3
     w, x, y, z = q.T
     zz = 1 - 2 * (x * x + y * y)

@@ -16,6 +16,7 @@ References
 """
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -163,15 +164,24 @@ def test_scaling_laws():
     assert direct.inertia_per_density == pytest.approx(s.inertia_per_density, rel=1e-4)
 
 
+def _sentence(call) -> str:
+    """The ConfigError message of ``call()``, checked to be one line with no traceback."""
+    with pytest.raises(ConfigError) as info:
+        call()
+    message = str(info.value)
+    assert "\n" not in message and "Traceback" not in message, message
+    return message
+
+
 def test_bad_templates_are_explained():
-    with pytest.raises(ConfigError, match="radius > 0"):
-        ParticleTemplate.from_spheres([[0, 0, 0, -1.0]])
-    with pytest.raises(ConfigError, match=r"\(k, 4\)"):
-        ParticleTemplate.from_spheres([[0, 0, 0]])
-    with pytest.raises(ConfigError, match="overlap"):
-        two_sphere_paper(offset=0.01)
-    with pytest.raises(ConfigError, match="scale factor"):
-        sphere(0.001).scaled(0.0)
+    assert _sentence(lambda: ParticleTemplate.from_spheres([[0, 0, 0, -1.0]])) == (
+        "every sphere of a particle template needs a radius > 0 [m].")
+    assert _sentence(lambda: ParticleTemplate.from_spheres([[0, 0, 0]])) == (
+        "a particle template needs spheres as a (k, 4) array of x, y, z, radius.")
+    # the upper bound r1 + r2 = 9 mm is printed as a float sum (0.009000000000000001)
+    assert re.fullmatch(r"two-sphere offset must be in \[0, 0\.009\d*\) m so the spheres overlap, "
+                        r"got 0\.01\.", _sentence(lambda: two_sphere_paper(offset=0.01)))
+    assert _sentence(lambda: sphere(0.001).scaled(0.0)) == "a template scale factor must be > 0, got 0.0."
 
 
 def test_sphere_inside_another_counts_once():
