@@ -53,21 +53,27 @@ def write_design_csv(design: Design, path, coded: bool = False) -> Path:
     return path
 
 
-def read_factor_comments(path) -> dict[str, Factor]:
-    """Factors described in the comment lines of a demcal CSV (empty if none)."""
-    found = {}
+def comment_lines(path):
+    """The ``#`` lines at the head of a CSV file, stripped."""
     with open(path, encoding="utf-8", errors="replace") as fh:
         for line in fh:
             if not line.startswith("#"):
-                break
-            m = _FACTOR_LINE.match(line.strip())
-            if m:
-                try:
-                    found[m["name"]] = Factor(
-                        m["name"], float(m["low"]), float(m["high"]), (m["units"] or "").strip()
-                    )
-                except ValueError:
-                    continue
+                return
+            yield line.strip()
+
+
+def read_factor_comments(path) -> dict[str, Factor]:
+    """Factors described in the comment lines of a demcal CSV (empty if none)."""
+    found = {}
+    for line in comment_lines(path):
+        m = _FACTOR_LINE.match(line)
+        if m:
+            try:
+                found[m["name"]] = Factor(
+                    m["name"], float(m["low"]), float(m["high"]), (m["units"] or "").strip()
+                )
+            except ValueError:
+                continue
     return found
 
 

@@ -2,16 +2,24 @@
 
 from __future__ import annotations
 
+import csv
+import re
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from demcal.doe.factors import Factor
-from demcal.doe.io import infer_factor_names, numeric_column, read_factor_comments, read_table
-from demcal.errors import DataError
+from demcal.doe.io import (comment_lines, infer_factor_names, numeric_column, read_factor_comments,
+                           read_table)
+from demcal.errors import ConfigError, DataError
 
 _TOL = 1e-9
+#: Largest coded level read as an axial point (rotatable CCD alpha of 8 factors).
+_MAX_CODED = 4.0
+#: The first comment line of a file written by ``demcal design -o``.
+_DESIGN_LINE = re.compile(r"^#\s*demcal design:.*?(?P<coded>\(coded levels\))?\s*$")
 
 
 @dataclass(frozen=True)
@@ -38,33 +46,78 @@ class Runs:
         return [f.name for f in self.factors]
 
 
-def _code_column(name: str, values: np.ndarray, factor: Factor | None, source: str) -> tuple[Factor, np.ndarray]:
+def _code_with_levels(name: str, values: np.ndarray, factor: Factor, source: str,
+                      coded: bool | None) -> np.ndarray:
+    """Coded levels of a column whose actual low/high levels are known.
+
+    A table that says what it holds (``coded``) is taken at its word. Otherwise values
+    inside the levels are actual; values outside them are read as actual levels if they
+    code to within +-:data:`_MAX_CODED` (axial points) and as coded levels if they lie
+    within +-:data:`_MAX_CODED` and reach -1 or +1; a column that reads both ways with
+    different results, or neither way, is refused rather than guessed.
+    """
+    if coded is True:
+        return values.copy()
+    as_actual = factor.to_coded(values)
+    if coded is False:
+        return as_actual
+    lo, hi = float(values.min()), float(values.max())
+    span = factor.high - factor.low
+    if lo >= factor.low - _TOL * span and hi <= factor.high + _TOL * span:
+        return as_actual
+    actual_ok = bool(np.all(np.abs(as_actual) <= _MAX_CODED + _TOL))
+    coded_ok = max(-lo, hi) <= _MAX_CODED + _TOL and (lo <= -1 + _TOL or hi >= 1 - _TOL)
+    levels = f"{name}={factor.low:g}:{factor.high:g}"
+    if actual_ok and coded_ok and not np.allclose(as_actual, values, rtol=0, atol=1e-9):
+        raise DataError(
+            f"column {name!r} of {source} runs from {lo:g} to {hi:g}, which reads both as "
+            f"coded levels and as actual levels outside {levels} (coded "
+            f"{as_actual.min():.3g} to {as_actual.max():.3g}); give levels that contain the "
+            f"actual values, or read a file written by 'demcal design -o', whose comment "
+            f"lines say which it holds."
+        )
+    if coded_ok:
+        return values.copy()
+    if actual_ok:
+        return as_actual
+    raise DataError(
+        f"column {name!r} of {source} runs from {lo:g} to {hi:g}, which is neither coded "
+        f"(-1..+1) nor near the levels {factor.low:g}..{factor.high:g} given for it; check "
+        f"--factor {levels}."
+    )
+
+
+def _code_column(name: str, values: np.ndarray, factor: Factor | None, source: str,
+                 coded: bool | None = None) -> tuple[Factor, np.ndarray]:
     """Decide whether a column holds coded or actual levels and return coded ones.
 
-    With a factor given: values inside [low, high] are actual levels; otherwise values
-    inside [-2, 2] (which covers CCD axial points) are taken as already coded. Without a
-    factor: values spanning exactly -1..+1 are coded; other columns are coded so that
-    their minimum is -1 and their maximum +1 (Design-Expert's coding of the design's
-    low and high levels).
+    ``coded`` is what the table says it holds (True: coded, False: actual, None: it does
+    not say). With a factor given, see :func:`_code_with_levels`. Without one: a table
+    that says it is coded, or values spanning exactly -1..+1, are coded; a column with
+    two levels, or three evenly spaced ones (factorial, Box-Behnken, face-centred CCD),
+    is coded so that its lowest level is -1 and its highest +1 (Design-Expert's coding).
+    Any other column (a circumscribed or inscribed CCD has five levels per factor) does
+    not show which of its levels are the low and high ones, so it is refused with a
+    request for ``--factor NAME=LOW:HIGH`` instead of being guessed.
     """
-    lo, hi = float(values.min()), float(values.max())
     if factor is not None:
-        span = factor.high - factor.low
-        if lo >= factor.low - _TOL * span and hi <= factor.high + _TOL * span:
-            return factor, factor.to_coded(values)
-        if lo >= -2.0 - _TOL and hi <= 2.0 + _TOL:
-            return factor, values.copy()
-        raise DataError(
-            f"column {name!r} of {source} runs from {lo:g} to {hi:g}, which is neither coded "
-            f"(-1..+1) nor inside the levels {factor.low:g}..{factor.high:g} given for it."
-        )
+        return factor, _code_with_levels(name, values, factor, source, coded)
+    lo, hi = float(values.min()), float(values.max())
     if hi == lo:
         raise DataError(f"column {name!r} of {source} has the same value in every run, so it "
                         "cannot be a factor; leave it out with --factors.")
-    if abs(lo + 1) < _TOL and abs(hi - 1) < _TOL:
+    if coded is True or (abs(lo + 1) < _TOL and abs(hi - 1) < _TOL):
         return Factor(name), values.copy()
-    f = Factor(name, lo, hi)
-    return f, f.to_coded(values)
+    rel = np.unique(np.round((values - lo) / (hi - lo), 6))
+    if len(rel) == 2 or (len(rel) == 3 and abs(rel[1] - 0.5) < 1e-6):
+        f = Factor(name, lo, hi)
+        return f, f.to_coded(values)
+    raise DataError(
+        f"column {name!r} of {source} has {len(rel)} different levels from {lo:g} to {hi:g}, "
+        f"so its low and high levels (coded -1 and +1) cannot be told from the data; give "
+        f"them with --factor {name}=LOW:HIGH (or --factor {name}=-1:1 if the column is "
+        f"already coded)."
+    )
 
 
 def runs_from_frame(
@@ -73,6 +126,7 @@ def runs_from_frame(
     factor_names=None,
     levels: dict | None = None,
     source: str = "the table",
+    coded: bool | None = None,
 ) -> Runs:
     """Build :class:`Runs` from a DataFrame.
 
@@ -88,6 +142,9 @@ def runs_from_frame(
         Actual low/high levels of some factors (``--factor A=0.5:0.7``).
     source : str
         Name of the table for messages.
+    coded : bool, optional
+        What the table says its factor columns hold: True for coded levels, False for
+        actual ones (a file written by ``demcal design -o``), None when it does not say.
     """
     responses = list(responses)
     levels = dict(levels or {})
@@ -97,6 +154,11 @@ def runs_from_frame(
         if not factor_names:
             raise DataError(f"{source} has no numeric factor columns besides the response.")
     factor_names = list(factor_names)
+    seen = set()
+    for nm in factor_names:
+        if nm in seen:
+            raise ConfigError(f"factor {nm!r} is named twice in --factors; name each factor once.")
+        seen.add(nm)
     for nm in levels:
         if nm not in factor_names:
             raise DataError(
@@ -107,18 +169,75 @@ def runs_from_frame(
     for nm in factor_names:
         if nm in responses:
             raise DataError(f"column {nm!r} cannot be both a factor and a response.")
-        f, c = _code_column(nm, numeric_column(df, nm, source), levels.get(nm), source)
+        f, c = _code_column(nm, numeric_column(df, nm, source), levels.get(nm), source, coded)
         factors.append(f)
         cols.append(c)
     return Runs(tuple(factors), np.column_stack(cols), ys, source)
 
 
+def _declared_units(path) -> bool | None:
+    """What a demcal design file says its levels are: True (coded), False (actual) or
+    None (no ``# demcal design`` line)."""
+    for line in comment_lines(path):
+        m = _DESIGN_LINE.match(line)
+        if m:
+            return bool(m["coded"])
+    return None
+
+
+def _check_csv_shape(path: Path) -> None:
+    """Refuse what pandas would quietly get wrong: a column named twice in the header
+    (pandas renames the second ``A.1``) and a row with more fields than the header
+    (pandas shifts the first such row into an index, reporting an empty cell)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return  # read_table reports it
+    lines = []
+    for lineno, line in enumerate(text.splitlines(), 1):
+        if '"' not in line:
+            line = line.split("#", 1)[0]
+        if line.strip():
+            lines.append((lineno, line))
+    if not lines:
+        return
+    rows = csv.reader((ln for _, ln in lines), skipinitialspace=True)
+    try:
+        header = [h.strip() for h in next(rows)]
+        seen = set()
+        for h in header:
+            if h and h in seen:
+                raise DataError(f"the header of {path} names column {h!r} twice; give every "
+                                "column its own name.")
+            seen.add(h)
+        for i, row in enumerate(rows, 1):
+            if len(row) > len(header):
+                lineno = lines[min(i, len(lines) - 1)][0]
+                raise DataError(
+                    f"row {i} of {path} (line {lineno} of the file) has {len(row)} fields, but "
+                    f"the header has {len(header)}; give every row one field per column."
+                )
+    except csv.Error:
+        return  # read_table reports it
+
+
+def read_table_checked(path):
+    """:func:`demcal.doe.io.read_table` after the checks it leaves out: a folder given
+    for the file, a column named twice, a row with more fields than the header."""
+    path = Path(path)
+    if path.is_dir():
+        raise DataError(f"{path} is a folder; give the path of a CSV file with one row per run.")
+    if path.is_file():
+        _check_csv_shape(path)
+    return read_table(path)
+
+
 def read_runs(path, responses, factor_names=None, levels: dict | None = None) -> Runs:
     """Read runs from a CSV; factor levels come from ``levels`` or the file's comments."""
-    df = read_table(path)
+    df = read_table_checked(path)
     found = read_factor_comments(path)
     merged = {k: v for k, v in found.items() if k in df.columns}
     if factor_names is None and merged:
         factor_names = [c for c in df.columns if c in merged]
     merged.update(levels or {})
-    return runs_from_frame(df, responses, factor_names, merged, str(path))
+    return runs_from_frame(df, responses, factor_names, merged, str(path), _declared_units(path))
