@@ -36,7 +36,7 @@ def test_repose_batch_json_with_a_bad_photo(tmp_path, capsys):
     assert d["summary"]["n"] == 2 and d["summary"]["mean"] == pytest.approx(31.0, abs=0.5)
     assert d["summary"]["failed"] == [str(tmp_path / "x.png")]
     assert "cannot read photo" in captured.err
-    assert (out_dir / "h0.png").exists() and (out_dir / "table.csv").exists()
+    assert (out_dir / "h0_fit.png").exists() and (out_dir / "table.csv").exists()
 
 
 def test_repose_single_bad_photo_exits_2(tmp_path, capsys):

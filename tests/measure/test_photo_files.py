@@ -46,4 +46,4 @@ def test_batch_csv_and_json_match_the_pandas_table(tmp_path):
     records = batch.table.replace({np.nan: None}).to_dict(orient="records")
     assert json.dumps(batch.to_dict()["photos"]) == json.dumps(records)
     assert pd.read_csv(tmp_path / "table.csv")["error"].notna().tolist() == [False, True, False]
-    assert all((tmp_path / "out" / f"h{i},{i}.png").stat().st_size > 10_000 for i in range(2))
+    assert all((tmp_path / "out" / f"h{i},{i}_fit.png").stat().st_size > 10_000 for i in range(2))

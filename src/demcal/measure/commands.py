@@ -30,7 +30,8 @@ def register(subparsers) -> None:
     repose.add_argument("--band", default="0.1,0.9",
                         help="fit each flank between these fractions of the heap height "
                              "(default 0.1,0.9)")
-    repose.add_argument("--out", help="folder for annotated PNGs and table.csv")
+    repose.add_argument("--out", help="folder for the annotated pictures (<photo>_fit.png, "
+                                      "never over a photo) and table.csv")
     repose.add_argument("--workers", type=int, default=1, help="processes (default 1)")
     add_json(repose, "print JSON")
 

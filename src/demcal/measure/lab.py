@@ -21,7 +21,8 @@ Accepted table (TOML shown; every key but ``name`` is optional)::
     sd_deg = 2.1
     n = 20
     # ... or measured: photos = ["photos/L/*.jpg"], mm_per_px = 0.2,
-    #     roi = [x0, y0, x1, y1], base_y = 820
+    #     roi = [x0, y0, x1, y1], base_y = 820,
+    #     exclude = ["photos/L/IMG_0042.jpg"]   # photos to leave out, on purpose
     [sliding]                       # inclined-plane sliding angle: given ...
     mean_deg = 25.42
     sd_deg = 2.6
@@ -35,6 +36,7 @@ The reference paper's two samples (IJABE 2020, Table 1 and Sections 2.1 and 3.1)
 from __future__ import annotations
 
 import glob
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -150,17 +152,46 @@ class PhotoSet:
     mm_per_px: float | None = None
     roi: tuple[int, int, int, int] | None = None
     base_y: float | None = None
+    exclude: tuple[str, ...] = ()  #: patterns of photos left out on purpose
 
-    def paths(self, base_dir: str | Path | None = None) -> list[str]:
-        """Photo files, glob patterns expanded relative to ``base_dir``, sorted."""
+    def paths(self, base_dir: str | Path | None = None, sample: str | None = None) -> list[str]:
+        """Photo files, glob patterns expanded relative to ``base_dir``, sorted, less
+        those matched by ``exclude``.
+
+        Raises
+        ------
+        DataError
+            A pattern or an exclusion matches no file, or every photo is excluded
+            (``sample`` names the record in the sentence).
+        """
+        of = "" if sample is None else f" of sample '{sample}'"
+
+        def expand(pattern):
+            full = pattern if base_dir is None or Path(pattern).is_absolute() else str(Path(base_dir) / pattern)
+            return full, sorted(glob.glob(full))
+
         out = []
         for pattern in self.patterns:
-            full = pattern if base_dir is None or Path(pattern).is_absolute() else str(Path(base_dir) / pattern)
-            hits = sorted(glob.glob(full))
+            full, hits = expand(pattern)
             if not hits:
                 raise DataError(f"no photo matches '{full}'; check the path in the lab record.")
             out.extend(hits)
-        return out
+        left_out = set()
+        for pattern in self.exclude:
+            full, hits = expand(pattern)
+            if not hits:
+                raise DataError(f"exclude pattern '{pattern}'{of} matches no photo; check the path "
+                                "in the lab record.")
+            left_out.update(_key(h) for h in hits)
+        kept = [p for p in out if _key(p) not in left_out]
+        if out and not kept:
+            raise DataError(f"every photo{of} is excluded; keep at least one in 'photos' or give "
+                            "'mean_deg' instead.")
+        return kept
+
+
+def _key(path) -> str:
+    return os.path.normcase(os.path.abspath(path))
 
 
 @dataclass(frozen=True)
@@ -275,7 +306,8 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
     Raises
     ------
     DataError
-        No photo matches, or none of the photos can be measured.
+        No photo matches, or a photo cannot be measured: it is named, never silently
+        left out of the mean (the record's ``exclude`` leaves photos out on purpose).
     """
     from demcal.measure.incline import measure_incline
     from demcal.measure.photo import measure_photos
@@ -285,11 +317,11 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
         out["repose_angle_deg"] = record.repose
     elif record.repose_photos is not None:
         ps = record.repose_photos
-        batch = measure_photos(ps.paths(base_dir), roi=ps.roi, base_y=ps.base_y,
+        paths = ps.paths(base_dir, record.name)
+        batch = measure_photos(paths, roi=ps.roi, base_y=ps.base_y,
                                mm_per_px=ps.mm_per_px, out_dir=out_dir)
-        if batch.summary is None:
-            raise DataError(f"none of the photos of sample '{record.name}' could be measured; "
-                            f"first problem: {batch.failures[0][1]}")
+        if batch.failures:
+            raise DataError(_failed_photos(record.name, batch.failures, len(paths), base_dir))
         s = batch.summary
         out["repose_angle_deg"] = MeasuredAngle(s.mean, s.sd, s.n, "photos")
     if record.sliding is not None:
@@ -298,6 +330,30 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
         inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats)
         out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, "incline readings")
     return out
+
+
+def _failed_photos(sample: str, failures, total: int, base_dir) -> str:
+    """The sentence refusing a record whose photos did not all measure: the first
+    photo and why, and the ``exclude`` line that would leave them out."""
+
+    def shown(photo):  # as written in the lab record: relative to its folder
+        if base_dir is not None:
+            try:
+                return Path(os.path.relpath(photo, base_dir)).as_posix()
+            except ValueError:  # another drive
+                pass
+        return Path(photo).as_posix()
+
+    first, why = failures[0]
+    names = [shown(p) for p, _ in failures]
+    exclude = "exclude = [" + ", ".join(f'"{n}"' for n in names) + "]"
+    why = why.rstrip(".")
+    if len(failures) == 1:
+        return (f"photo '{names[0]}' of sample '{sample}' cannot be measured ({why}); fix or "
+                f"replace it, or leave it out with {exclude} in the sample's [repose] table.")
+    return (f"{len(failures)} of the {total} photos of sample '{sample}' cannot be measured, the "
+            f"first '{names[0]}' ({why}); fix or replace them, or leave them out with {exclude} "
+            "in the sample's [repose] table.")
 
 
 def paper_records() -> dict[str, LabRecord]:
@@ -383,7 +439,7 @@ def _given_or_measured(t, where, key, source, table_text, source_text, keys):
 
 def _repose(t, where):
     given = _given_or_measured(t, where, "repose", "photos", "photos", "'photos'",
-                               ("photos", "mm_per_px", "roi", "base_y"))
+                               ("photos", "mm_per_px", "roi", "base_y", "exclude"))
     if given is not None:
         return given, None
     photos = t["photos"]
@@ -391,6 +447,12 @@ def _repose(t, where):
         photos = [photos]
     if not photos or not all(isinstance(p, str) for p in photos):
         raise ConfigError(f"{where} repose: 'photos' must be a file pattern or a list of them.")
+    exclude = t.get("exclude", [])
+    if isinstance(exclude, str):
+        exclude = [exclude]
+    if not isinstance(exclude, list) or not all(isinstance(p, str) for p in exclude):
+        raise ConfigError(f"{where} repose: 'exclude' must be a file pattern or a list of them "
+                          "(the photos to leave out).")
     roi = None
     if "roi" in t:
         roi = _numbers(t, "roi", f"{where} repose")
@@ -398,7 +460,7 @@ def _repose(t, where):
             raise ConfigError(f"{where} repose: 'roi' must be [x0, y0, x1, y1] in pixels.")
         roi = tuple(int(v) for v in roi)
     return None, PhotoSet(tuple(photos), _number(t, "mm_per_px", f"{where} repose", 0.0, None, True),
-                          roi, _number(t, "base_y", f"{where} repose", 0.0, None))
+                          roi, _number(t, "base_y", f"{where} repose", 0.0, None), tuple(exclude))
 
 
 def _sliding(t, where):

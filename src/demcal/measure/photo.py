@@ -59,6 +59,13 @@ OUTLIER_Z = 3.5
 #: A channel whose Otsu classes differ by less than this (intensity 0..1) is not used
 #: while another one separates the heap by more.
 MIN_CONTRAST = 0.08
+#: A photo (or region of interest) whose block means (the thumbnail of step 3) span less
+#: than this (intensity 0..1) in red, green and blue alike is uniform: blank, fully
+#: over- or under-exposed, or a region with no heap in it.
+UNIFORM_SPREAD = MIN_CONTRAST / 2
+#: Annotated pictures of a batch are named ``<stem><FIT_SUFFIX>`` (never the photo's own
+#: name, so a picture written next to its photo cannot replace it).
+FIT_SUFFIX = "_fit.png"
 #: Columns of a batch's table (:attr:`PhotoBatch.rows`, ``table.csv``).
 TABLE_COLUMNS = ("photo", "angle_deg", "left_deg", "right_deg", "r2", "height", "unit", "png",
                  "error", "outlier")
@@ -170,7 +177,11 @@ def _pixels(image, name) -> tuple[np.ndarray, float]:
 
 def _otsu(values: np.ndarray) -> tuple[float, float, float]:
     """Otsu threshold of ``values``, its separability (between-class over total
-    variance) and the difference of the two class means."""
+    variance) and the difference of the two class means; ``(max, 0, 0)`` for values
+    that are all (nearly) the same, which cannot be split into 256 bins."""
+    low, high = float(values.min()), float(values.max())
+    if not high - low > 1e-6 * max(1.0, abs(high)):  # also false for NaN
+        return high, 0.0, 0.0
     hist, edges = np.histogram(values, bins=256)
     centres = 0.5 * (edges[:-1] + edges[1:])
     w0 = np.cumsum(hist).astype(float)
@@ -283,7 +294,8 @@ def segment(img: np.ndarray, top_rows: int | None = None, full_scale: float = 1.
     """Foreground mask of a heap photo (RGB, full intensity ``full_scale``) before
     choosing the heap piece.
 
-    Raises :class:`DataError` when no channel has :data:`MIN_CONTRAST`.
+    Raises :class:`DataError` when the picture is uniform (:data:`UNIFORM_SPREAD`) or
+    no channel has :data:`MIN_CONTRAST`.
     Returns ``(mask, channel_values, threshold, channel_name, polarity)``: the
     foreground is ``channel_values < threshold`` when ``polarity`` is ``"below"`` and
     ``>`` when ``"above"`` (``channel_values`` is the smoothed, lighting-flattened
@@ -292,6 +304,9 @@ def segment(img: np.ndarray, top_rows: int | None = None, full_scale: float = 1.
     rows = img.shape[0]
     top_rows = top_rows or max(2, rows // 30)
     thumb, f = _thumbnail(img, full_scale)
+    spread = thumb.max(axis=(0, 1)) - thumb.min(axis=(0, 1))
+    if not np.any(spread >= UNIFORM_SPREAD):  # NaN pixels count as uniform too
+        raise DataError("the picture is uniform; check the exposure and the region of interest")
     top_thumb = max(1, top_rows // f)
     best = None
     for name, values in _channels(thumb).items():
@@ -349,6 +364,9 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
     """
     if isinstance(photo, (str, os.PathLike)):
         name = name or str(photo)
+        if png is not None and _same_file(png, photo):
+            raise DataError(f"the annotated picture '{png}' would overwrite the photo '{photo}'; "
+                            "write it to another file or folder.")
         photo = _read(photo)
     else:
         name = name or "<array>"
@@ -439,6 +457,20 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
         picture = pixels if pixels.dtype == np.uint8 else pixels / full_scale
         plot_photo(picture, m, (x0, y0, x1, y1), scale, png, save_png)
     return m
+
+
+def _file_key(path) -> tuple:
+    """What identifies a file: (device, inode) if it exists, else its resolved path."""
+    try:
+        st = os.stat(path)
+        return st.st_dev, st.st_ino
+    except OSError:
+        return (os.path.normcase(os.path.realpath(path)),)
+
+
+def _same_file(a, b) -> bool:
+    """Whether paths ``a`` and ``b`` name the same file (links and ``..`` followed)."""
+    return _file_key(a) == _file_key(b)
 
 
 def _check_roi(roi, shape, name):
@@ -555,8 +587,19 @@ class PhotoBatch:
                 for r in self.rows]
 
     def write_csv(self, path) -> None:
-        """Write the rows as CSV (empty cells for failed photos' NaN angles)."""
-        self.table.to_csv(path, index=False)
+        """Write the rows as CSV (empty cells for failed photos' NaN angles), atomically:
+        to a temporary file in the same folder, then renamed over ``path``, so an
+        interrupted write leaves the previous table (or none), never a truncated one."""
+        import uuid
+
+        path = Path(path)
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
+        try:
+            self.table.to_csv(tmp, index=False)
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
 
     def to_dict(self) -> dict:
         records = self.records()
@@ -614,20 +657,65 @@ def _measure_in_threads(jobs, threads: int) -> list:
     return results
 
 
+def annotated_paths(photos, out_dir) -> list[Path]:
+    """Where :func:`measure_photos` writes the annotated picture of each photo: one
+    distinct file per photo in ``out_dir``, ``<stem>_fit.png``; photos of the same stem
+    (from different folders) get their folder's name in front, ``<folder>_<stem>_fit.png``,
+    and a name still taken (by another picture or by a photo of the batch) a counter,
+    ``<stem>_2_fit.png``.
+
+    Raises
+    ------
+    DataError
+        A picture would be written over one of the photos (e.g. a hard link to it).
+    """
+    out_dir = Path(out_dir)
+    photos = [Path(p) for p in photos]
+    stems = [p.stem for p in photos]
+    count: dict[str, int] = {}
+    for stem in stems:
+        count[stem.casefold()] = count.get(stem.casefold(), 0) + 1
+    # names compared case-blind: two pictures must differ on any file system
+    taken = {os.path.realpath(p).casefold() for p in photos}
+    out = []
+    for p, stem in zip(photos, stems):
+        base = stem if count[stem.casefold()] == 1 else f"{Path(os.path.realpath(p)).parent.name}_{stem}"
+        png, k = out_dir / f"{base}{FIT_SUFFIX}", 2
+        while os.path.realpath(png).casefold() in taken:
+            png, k = out_dir / f"{base}_{k}{FIT_SUFFIX}", k + 1
+        taken.add(os.path.realpath(png).casefold())
+        out.append(png)
+    inputs = {_file_key(p): p for p in photos}
+    for p, png in zip(photos, out):
+        if _file_key(png) in inputs:
+            raise DataError(f"the annotated picture of '{p}' would overwrite the photo "
+                            f"'{inputs[_file_key(png)]}' (the same file as '{png}'); "
+                            "choose another output folder.")
+    return out
+
+
 def measure_photos(photos, roi=None, base_y=None, mm_per_px=None, band=DEFAULT_BAND,
                    out_dir: str | Path | None = None, workers: int = 1) -> PhotoBatch:
     """Measure a batch of photos; a bad photo is reported and the batch goes on.
 
-    ``out_dir`` receives one annotated PNG per photo (``<stem>.png``). ``workers > 1``
-    measures photos in that many processes; otherwise two threads of this process
-    measure them (one on a single-core machine).
+    ``out_dir`` receives one annotated PNG per photo, named by :func:`annotated_paths`
+    (``<stem>_fit.png``; never one of the photos). ``workers > 1`` measures photos in
+    that many processes; otherwise two threads of this process measure them (one on a
+    single-core machine).
+
+    Raises
+    ------
+    DataError
+        An annotated picture would be written over one of the photos (nothing is
+        measured or written then).
     """
     photos = [str(p) for p in photos]
+    pngs = annotated_paths(photos, out_dir) if out_dir is not None else [None] * len(photos)
     jobs = []
-    for p in photos:
+    for p, png in zip(photos, pngs):
         kw = {"roi": roi, "base_y": base_y, "mm_per_px": mm_per_px, "band": band}
-        if out_dir is not None:
-            kw["png"] = str(Path(out_dir) / f"{Path(p).stem}.png")
+        if png is not None:
+            kw["png"] = str(png)
         jobs.append((p, kw))
     if workers > 1 and len(jobs) > 1:
         from concurrent.futures import ProcessPoolExecutor
