@@ -21,3 +21,77 @@ def test_every_command_module_registers_its_commands():
     assert {"design", "analyze", "optimize", "measure", "bench", "run", "calibrate", "report",
             "demo"} <= set(sub.choices)
     assert all(callable(p.get_default("func")) for p in sub.choices.values())
+
+
+# --------------------------------------------------------------------------- file-system mistakes
+# A file where a folder is wanted (and the like) is one sentence with exit status 2,
+# never a traceback.
+
+import errno  # noqa: E402
+
+import pytest  # noqa: E402
+
+from demcal.cli import main  # noqa: E402
+
+
+def _one_sentence(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("demcal: error: ")
+    return err
+
+
+@pytest.mark.parametrize("argv", [
+    ["report", "repose.toml", "--out", "lab.toml"],
+    ["bench", "repose-funnel", "--profile", "tiny", "--out", "lab.toml"],
+    ["demo", "--out", "lab.toml"],
+])
+def test_out_that_is_a_file_is_one_sentence(example, capsys, argv):
+    assert main(argv) == 2
+    err = _one_sentence(capsys)
+    assert "--out lab.toml is a file, not a folder" in err and "give --out a folder" in err
+
+
+def test_out_below_a_file_is_one_sentence(example, capsys):
+    assert main(["demo", "--out", "lab.toml/demo"]) == 2
+    err = _one_sentence(capsys)
+    assert "lab.toml is a file, not a folder" in err
+
+
+def test_workdir_that_is_a_file_is_one_sentence(example, capsys):
+    text = (example / "repose.toml").read_text()
+    (example / "repose.toml").write_text(text.replace("[campaign]\n", '[campaign]\nworkdir = "lab.toml"\n', 1))
+    assert main(["run", "repose.toml", "--profile", "tiny", "--quiet", "--workers", "1"]) == 2
+    err = _one_sentence(capsys)
+    assert "cannot write to lab.toml" in err and "lab.toml is a file, not a folder" in err
+
+
+@pytest.mark.parametrize("exc, words", [
+    (PermissionError(errno.EACCES, "Permission denied", "out/report.html"),
+     "permission denied for out/report.html"),
+    (OSError(errno.ENOSPC, "No space left on device", "out/store.sqlite"),
+     "no space left on the disk that holds out/store.sqlite"),
+    (IsADirectoryError(errno.EISDIR, "Is a directory", "out/report.html"),
+     "out/report.html is a folder, not a file"),
+    (FileExistsError(errno.EEXIST, "File exists", "out"), "cannot create out: it already exists"),
+    (OSError(errno.EIO, "Input/output error", "out/x.csv"), "cannot access out/x.csv: input/output error"),
+    (OSError("something broke"), "file-system error: something broke"),
+])
+def test_any_file_system_error_is_one_sentence(capsys, monkeypatch, exc, words):
+    def fail(args):
+        raise exc
+
+    monkeypatch.setattr("demcal.campaign.commands._demo", fail)
+    assert main(["demo"]) == 2
+    err = _one_sentence(capsys)
+    assert words in err, err
+
+
+def test_keyboard_interrupt_is_still_its_own_message(capsys, monkeypatch):
+    def stop(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr("demcal.campaign.commands._demo", stop)
+    assert main(["demo"]) == 130
+    assert "interrupted" in capsys.readouterr().err

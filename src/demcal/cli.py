@@ -3,17 +3,22 @@
 Each subsystem registers its own sub-commands: a module listed in
 :data:`COMMAND_MODULES` exposes ``register(subparsers)``, which adds its parsers
 and sets ``func`` on each (``func(args) -> int`` exit status). Errors of type
-:class:`demcal.errors.DemcalError` are printed as one sentence, exit status 2.
+:class:`demcal.errors.DemcalError` are printed as one sentence, exit status 2; so
+are file-system errors (:class:`OSError`: a file where a folder is wanted, no
+permission, a full disk), which name the path and what to do.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
+import os
 import sys
+from pathlib import Path
 
 from demcal import __version__
-from demcal.errors import DemcalError
+from demcal.errors import ConfigError, DemcalError
 
 #: Modules that contribute sub-commands, in the order they appear in ``--help``.
 COMMAND_MODULES = (
@@ -51,13 +56,73 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 1
     try:
+        _check_out_folder(getattr(args, "out", None))
         return int(args.func(args) or 0)
     except DemcalError as exc:
         print(f"demcal: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"demcal: error: {os_error_sentence(exc)}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("demcal: interrupted; finished results are kept.", file=sys.stderr)
         return 130
+
+
+def _check_out_folder(out) -> None:
+    """Every command's ``--out`` is a folder (created if missing): refuse a path that is,
+    or lies below, an existing file before any work is done."""
+    if out is None or str(out) == "":
+        return
+    path = Path(out)
+    blocker = _file_in_the_way(path)
+    if blocker is None:
+        return
+    if blocker == path:
+        raise ConfigError(f"--out {path} is a file, not a folder; give --out a folder path "
+                          "(it is created if missing).")
+    raise ConfigError(f"--out {path} cannot be created: {blocker} is a file, not a folder; "
+                      "give --out a folder path.")
+
+
+def _file_in_the_way(path: Path) -> Path | None:
+    """``path`` or the first of its parents that exists but is not a folder, if any."""
+    for candidate in [*reversed(path.parents), path]:
+        try:
+            if candidate.exists() and not candidate.is_dir():
+                return candidate
+        except OSError:
+            return None
+    return None
+
+
+def os_error_sentence(exc: OSError) -> str:
+    """One sentence naming the path and the problem of a file-system error."""
+    name = exc.filename if exc.filename is not None else exc.filename2
+    reason = (exc.strerror or str(exc) or type(exc).__name__).rstrip(".")
+    if name is None:
+        return f"file-system error: {reason[:1].lower() + reason[1:]}."
+    path = Path(os.fsdecode(name))
+    code = exc.errno
+    if isinstance(exc, NotADirectoryError) or code == errno.ENOTDIR:
+        blocker = _file_in_the_way(path)
+        if blocker == path:
+            return f"cannot use {path}: it is a file, not a folder; give a folder path."
+        where = f"{blocker} is a file" if blocker is not None else "part of that path is a file"
+        return f"cannot write to {path}: {where}, not a folder; give a folder path or move that file."
+    if isinstance(exc, FileExistsError) or code == errno.EEXIST:
+        what = " as a file" if path.exists() and not path.is_dir() else ""
+        return f"cannot create {path}: it already exists{what}; give another path or move it away."
+    if isinstance(exc, IsADirectoryError) or code == errno.EISDIR:
+        return f"{path} is a folder, not a file; give a file path."
+    if isinstance(exc, PermissionError) or code in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return (f"permission denied for {path}; choose a place you can write to "
+                "or change the permissions.")
+    if isinstance(exc, FileNotFoundError) or code == errno.ENOENT:
+        return f"{path} does not exist; check the path."
+    if code in (errno.ENOSPC, getattr(errno, "EDQUOT", errno.ENOSPC)):
+        return f"no space left on the disk that holds {path}; free some space and run again."
+    return f"cannot access {path}: {reason[:1].lower() + reason[1:]}."
 
 
 if __name__ == "__main__":  # pragma: no cover

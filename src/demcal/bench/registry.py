@@ -15,6 +15,7 @@ parameter paths of a campaign's factors.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Protocol
@@ -129,21 +130,57 @@ def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None
             )
         spec = table[key]
         if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool):
-            try:
-                value = type(spec.default)(value) if isinstance(spec.default, int) and float(value).is_integer() else float(value)
-            except (TypeError, ValueError):
-                raise ConfigError(f"setting '{key}' must be a number, got '{value}'.") from None
-            if spec.low is not None and value < spec.low or spec.high is not None and value > spec.high:
-                raise ConfigError(
-                    f"setting '{key}' = {value} is outside its allowed range "
-                    f"[{spec.low}, {spec.high}] {spec.unit}."
-                )
+            value = _number(spec, value)
         elif spec.choices and str(value) not in spec.choices:
             raise ConfigError(
                 f"setting '{key}' = '{value}' is not one of: {', '.join(spec.choices)}."
             )
         resolved[key] = value
     return resolved
+
+
+def _allowed(spec: Setting) -> str:
+    """The allowed range of a numeric setting in words, e.g. ``from 1 to 64``."""
+    unit = "" if spec.unit in ("", "-") else f" {spec.unit}"
+    low, high = _plain(spec.low), _plain(spec.high)
+    if spec.low is not None and spec.high is not None:
+        return f" from {low} to {high}{unit}"
+    if spec.low is not None:
+        return f" of at least {low}{unit}"
+    if spec.high is not None:
+        return f" of at most {high}{unit}"
+    return ""
+
+
+def _plain(x: float | None) -> str:
+    """A bound as written by a person: ``1000000``, ``0.01``, ``1e+11``."""
+    if x is None:
+        return ""
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e7 else f"{x:g}"
+
+
+def _number(spec: Setting, value: Any) -> float | int:
+    """``value`` as the number type of ``spec``: finite, whole where the setting is an
+    integer, inside the setting's range -- else one sentence naming key and range."""
+    key = spec.key
+    whole = isinstance(spec.default, int)
+    kind = "whole number" if whole else "number"
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(f"setting '{key}' must be a {kind}{_allowed(spec)}, got '{value}'.") from None
+    if not math.isfinite(number):
+        raise ConfigError(f"setting '{key}' must be a finite {kind}{_allowed(spec)}, got {value}.")
+    if whole:
+        if not number.is_integer():
+            raise ConfigError(f"setting '{key}' must be a whole number{_allowed(spec)}, got {value}.")
+        number = value if isinstance(value, int) else int(number)
+    if spec.low is not None and number < spec.low or spec.high is not None and number > spec.high:
+        raise ConfigError(f"setting '{key}' = {value} is outside its allowed range; "
+                          f"give a {kind}{_allowed(spec)}.")
+    return number
 
 
 def _load_builtin() -> None:

@@ -223,9 +223,30 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
         raise DataError(f"{campaign.path.name} has no results yet; run `demcal run {campaign.path}` first.")
     with Store(store_path, readonly=True) as store:
         table = design_results(campaign, store)
-    done = int((table["status"] == "done").sum())
+        done = int((table["status"] == "done").sum())
+        elsewhere = {}  # profile -> design runs done under it, when too few are done under this one
+        if done <= len(campaign.factors) + 1:
+            from demcal.bench.registry import get_experiment
+            from demcal.errors import DemcalError
+
+            for profile in get_experiment(campaign.test).profiles:
+                if profile == campaign.profile:
+                    continue
+                try:
+                    other = design_results(campaign.with_profile(profile), store)
+                except DemcalError:  # the campaign's settings do not fit that profile
+                    continue
+                if (count := int((other["status"] == "done").sum())):
+                    elsewhere[profile] = count
     if done <= len(campaign.factors) + 1:
         failed = int((table["status"] == "failed").sum())
+        if elsewhere:
+            best = max(elsewhere, key=elsewhere.get)
+            there = ", ".join(f"{n} are done under '{p}'" for p, n in sorted(elsewhere.items(), key=lambda i: -i[1]))
+            here = (f"no design run is done under profile '{campaign.profile}'" if done == 0 else
+                    f"only {done} of {len(table)} design runs are done under profile '{campaign.profile}'")
+            raise DataError(f"{here}; {there}: give --profile {best}, or run "
+                            f"`demcal run {campaign.path} --profile {campaign.profile}` to finish these.")
         hint = ("; rerun the failed ones with `demcal run --retry-failed`" if failed
                 else f"; run `demcal run {campaign.path}` to finish them")
         raise DataError(f"only {done} of {len(table)} design runs are done{hint}.")

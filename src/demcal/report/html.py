@@ -4,6 +4,8 @@ A report is a list of blocks (headings, paragraphs, tables, figures) written to 
 file with the figures embedded as base64 PNG, so the file can be mailed or archived on
 its own. Each table is also written next to it as ``tables/<name>.csv`` and
 ``tables/<name>.json`` and each figure as ``figures/<name>.png`` and ``.svg``.
+Every file is written atomically (:func:`write_atomic`): a report interrupted
+while writing leaves each earlier file whole.
 
 Example
 -------
@@ -18,17 +20,19 @@ from __future__ import annotations
 
 import base64
 import html
+import io
 import json
 import math
 import os
 import re
+import uuid
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from demcal.report.figures import figure_png_bytes, save_figure_formats
+from demcal.report.figures import figure_png_bytes
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;
@@ -68,6 +72,36 @@ def format_number(v, digits: int = 4, column: str = "") -> str:
     if float(x).is_integer() and abs(x) < 1e7:
         return f"{int(x)}"
     return f"{x:.{digits}g}"
+
+
+def write_atomic(path, data: str | bytes) -> Path:
+    """Write ``data`` to ``path`` through a temporary file in the same folder and a
+    rename (:func:`os.replace`), so ``path`` holds either its old or its new content,
+    whole; the temporary file is removed if anything fails. Text is written as UTF-8."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
+    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
+    try:
+        with open(tmp, "xb") as handle:
+            handle.write(payload)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            tmp.unlink()
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def _figure_bytes(fig, fmt: str, dpi: int) -> bytes:
+    if fmt not in ("png", "svg", "pdf"):
+        from demcal.errors import ConfigError
+
+        raise ConfigError(f"cannot write a figure as '.{fmt}'; use png or svg.")
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, dpi=dpi)
+    return buf.getvalue()
 
 
 def _slug(name: str) -> str:
@@ -144,10 +178,10 @@ class HtmlReport:
         if write_files:
             tdir = self.out_dir / "tables"
             tdir.mkdir(exist_ok=True)
-            df.to_csv(tdir / f"{name}.csv", index=index)
             records = df.reset_index() if index else df
-            (tdir / f"{name}.json").write_text(
-                json.dumps(json.loads(records.to_json(orient="records", double_precision=15)), indent=1))
+            text = json.dumps(json.loads(records.to_json(orient="records", double_precision=15)), indent=1)
+            write_atomic(tdir / f"{name}.csv", df.to_csv(index=index))
+            write_atomic(tdir / f"{name}.json", text)
         head = []
         if index:
             head.append(f'<th class="t">{html.escape(str(df.index.name or ""))}</th>')
@@ -175,11 +209,8 @@ class HtmlReport:
         if write_files and self.figure_formats:
             fdir = self.out_dir / "figures"
             fdir.mkdir(exist_ok=True)
-            if "png" in self.figure_formats:
-                (fdir / f"{name}.png").write_bytes(png)
-            others = [f for f in self.figure_formats if f != "png"]
-            if others:
-                save_figure_formats(fig, fdir / name, others, self.dpi)
+            for fmt in self.figure_formats:
+                write_atomic(fdir / f"{name}.{fmt}", png if fmt == "png" else _figure_bytes(fig, fmt, self.dpi))
         data = base64.b64encode(png).decode("ascii")
         cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
         self.blocks.append(f'<figure><img alt="{html.escape(name)}" '
@@ -197,8 +228,4 @@ class HtmlReport:
 
     def write(self, filename: str = "report.html") -> Path:
         """Write the HTML file (atomically) and return its path."""
-        path = self.out_dir / filename
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(self.to_html(), encoding="utf-8")
-        os.replace(tmp, path)
-        return path
+        return write_atomic(self.out_dir / filename, self.to_html())
