@@ -104,6 +104,26 @@ def test_design_point_outside_a_setting_range(campaign_file):
         plan_design(campaign)
 
 
+def test_design_too_large_is_one_sentence(campaign_file):
+    """Every design point is a DEM simulation: a design above the run cap is refused with
+    its run count before anything is built (4 factors at 100 levels once ran out of memory)."""
+    cases = (  # the first case is cheap to build, so unchecked code fails it quickly
+        ('type = "full-factorial"\nlevels = 20', "160,000 runs"),
+        ('type = "full-factorial"\ncenter = 200000', "200,016 runs"),
+        ('type = "box-behnken"\ncenter = 200000', "200,024 runs"),
+        ('type = "full-factorial"\nlevels = 100', "100,000,000 runs"),
+        ('type = "full-factorial"\ncenter = 1000000000000', "1,000,000,000,016 runs"),
+    )
+    for new, words in cases:
+        path = campaign_file(replace={'type = "box-behnken"\ncenter = 5': new})
+        with pytest.raises(ConfigError) as info:
+            load_campaign(path)
+        message = str(info.value)
+        assert message.startswith("campaign.toml line "), message
+        assert words in message and "100,000" in message, message
+        assert "\n" not in message and message.endswith("."), message
+
+
 def _digest(folder):
     return {p.relative_to(folder): hashlib.sha256(p.read_bytes()).hexdigest()
             for p in sorted(folder.rglob("*")) if p.is_file()}
@@ -153,3 +173,16 @@ def test_unknown_sample_is_named(campaign_file):
         load_campaign(path)
     line = line_of(path, 'sample = "X"')
     assert str(info.value) == f"campaign.toml line {line}: sample 'X' is not in the lab file; samples: L, I."
+
+
+@pytest.mark.parametrize("new, shown", [('type = "full-factorial"\nlevels = 2.5', "2.5"),
+                                        ('type = "full-factorial"\nlevels = "x"', "'x'"),
+                                        ('type = "fractional-factorial"\nfraction = 0', "0")])
+def test_design_counts_must_be_whole_numbers(campaign_file, new, shown):
+    """levels = 2.5 was truncated to 2 and levels = "x" raised a bare ValueError."""
+    path = campaign_file(replace={'type = "box-behnken"\ncenter = 5': new})
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    message = str(info.value)
+    assert "must be a whole number of at least" in message and f"got {shown};" in message
+    assert "\n" not in message and message.endswith("."), message

@@ -471,9 +471,19 @@ class _Loader:
         try:
             from demcal.campaign.runner import design_matrix
 
-            design_matrix(DesignConfig(kind, center, options), k)
+            # without the given centre points first, so that a huge `center` is refused
+            # by its run count before any centre row is built
+            runs = design_matrix(DesignConfig(kind, None if center is None else 0, options), k).shape[0]
         except ConfigError as exc:
             raise self.error(where + ("type",), str(exc)) from None
+        if center:
+            from demcal.doe.designs import check_run_count
+
+            try:
+                check_run_count(runs + center, f"a {kind} design of {runs:,} runs plus {center:,} centre points",
+                                "use fewer centre points")
+            except ConfigError as exc:
+                raise self.error(where + ("center",), str(exc)) from None
         return DesignConfig(type=kind, center=center, options=options)
 
     def responses(self, experiment) -> tuple[Response, ...]:

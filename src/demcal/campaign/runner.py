@@ -35,6 +35,17 @@ DESIGN_TYPES = {
 }
 
 
+def _whole(options: dict, key: str, default: int, minimum: int) -> int:
+    """A ``[design]`` option that counts something: a whole number >= ``minimum``."""
+    value = options.get(key, default)
+    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
+          and float(value).is_integer() and value >= minimum)
+    if not ok:
+        raise ConfigError(f"[design] option '{key}' must be a whole number of at least "
+                          f"{minimum}, got {value!r}; give e.g. {key} = {max(default, minimum)}.")
+    return int(value)
+
+
 def design_matrix(design: DesignConfig, k: int) -> np.ndarray:
     """The coded ``(runs, k)`` matrix of a ``[design]`` table, in standard order."""
     from demcal.doe import designs
@@ -63,12 +74,13 @@ def design_matrix(design: DesignConfig, k: int) -> np.ndarray:
     elif kind == "central-composite":
         matrix = designs.central_composite(k, options.get("variant", "circumscribed"),
                                            options.get("alpha", "rotatable"),
-                                           6 if center is None else center, int(options.get("fraction", 0)))
+                                           6 if center is None else center,
+                                           _whole(options, "fraction", 0, 0))
     else:
         if kind == "full-factorial":
-            matrix = designs.full_factorial([int(options.get("levels", 2))] * k)
+            matrix = designs.full_factorial([_whole(options, "levels", 2, 2)] * k)
         elif kind == "fractional-factorial":
-            matrix = designs.fractional_factorial(k, int(options.get("fraction", 1)))
+            matrix = designs.fractional_factorial(k, _whole(options, "fraction", 1, 1))
         else:
             matrix = designs.plackett_burman(k, options.get("runs"))
         if center:

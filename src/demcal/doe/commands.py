@@ -13,6 +13,28 @@ if TYPE_CHECKING:
 
 KINDS = ("box-behnken", "ccd", "factorial", "fractional", "plackett-burman", "steepest-ascent")
 
+_BUILT = ("box-behnken", "ccd", "factorial", "fractional", "plackett-burman")
+
+#: Options that only some design kinds take: (attribute, option as typed, kinds). Their
+#: defaults are None (False for flags), so that an option given to a design kind that
+#: does not use it is refused instead of silently ignored.
+KIND_OPTIONS = (
+    ("runs_csv", "a runs CSV", ("steepest-ascent",)),
+    ("n_factors", "-k", _BUILT),
+    ("center", "--center", _BUILT),
+    ("seed", "--seed", _BUILT),
+    ("ccd_type", "--ccd-type", ("ccd",)),
+    ("alpha", "--alpha", ("ccd",)),
+    ("levels", "--levels", ("factorial",)),
+    ("fraction", "--fraction", ("fractional",)),
+    ("generators", "--generators", ("fractional",)),
+    ("runs", "--runs", ("plackett-burman",)),
+    ("response", "--response", ("steepest-ascent",)),
+    ("step", "--step", ("steepest-ascent",)),
+    ("steps", "--steps", ("steepest-ascent",)),
+    ("descent", "--descent", ("steepest-ascent",)),
+)
+
 
 def register(subparsers) -> None:
     p = add_command(
@@ -32,19 +54,89 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=None,
                    help="randomise the run order with this seed (default: standard order)")
     p.add_argument("--coded", action="store_true", help="write coded levels instead of actual ones")
-    p.add_argument("--ccd-type", default="circumscribed",
-                   choices=["circumscribed", "inscribed", "face-centred"], help="CCD type")
-    p.add_argument("--alpha", default="rotatable",
-                   help="CCD axial distance: rotatable, orthogonal or a number")
-    p.add_argument("--levels", type=int, default=2, help="factorial: levels per factor")
+    p.add_argument("--ccd-type", default=None,
+                   choices=["circumscribed", "inscribed", "face-centred"],
+                   help="CCD type (default: circumscribed)")
+    p.add_argument("--alpha", default=None,
+                   help="CCD axial distance: rotatable (default), orthogonal or a number")
+    p.add_argument("--levels", type=int, default=None, help="factorial: levels per factor (default: 2)")
     p.add_argument("--fraction", type=int, default=None, help="fractional: p of 2^(k-p)")
     p.add_argument("--generators", default=None, help="fractional: e.g. D=ABC,E=ABD")
     p.add_argument("--runs", type=int, default=None, help="Plackett-Burman: 8, 12, 16, 20 or 24 runs")
     p.add_argument("--response", help="steepest-ascent: response column")
-    p.add_argument("--step", type=float, default=1.0, help="steepest-ascent: base step [coded]")
-    p.add_argument("--steps", type=int, default=5, help="steepest-ascent: number of steps")
+    p.add_argument("--step", type=float, default=None,
+                   help="steepest-ascent: base step [coded], > 0 (default: 1)")
+    p.add_argument("--steps", type=int, default=None,
+                   help="steepest-ascent: number of steps, >= 1 (default: 5)")
     p.add_argument("--descent", action="store_true", help="steepest-ascent: go downhill")
     p.add_argument("-o", "--output", help="CSV file to write (default: standard output)")
+
+
+def _join(words) -> str:
+    words = list(words)
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def check_options(args) -> None:
+    """Refuse options that the chosen design kind does not use, and bad counts."""
+    import math
+
+    for attr, option, kinds in KIND_OPTIONS:
+        value = getattr(args, attr, None)
+        if value is None or value is False or args.kind in kinds:
+            continue
+        if attr == "runs_csv":
+            raise ConfigError(
+                f"a runs CSV ({value}) is read only by steepest-ascent designs, not by a "
+                f"{args.kind} design; remove it or choose steepest-ascent."
+            )
+        raise ConfigError(
+            f"{option} does not apply to a {args.kind} design; only {_join(kinds)} designs "
+            f"take it, so remove it or choose one of those."
+        )
+    if args.n_factors is not None and args.n_factors < 1:
+        raise ConfigError(f"-k must be at least 1 factor, not {args.n_factors}.")
+    if args.center is not None and args.center < 0:
+        raise ConfigError(f"--center must be 0 or more centre points, not {args.center}.")
+    if args.seed is not None and args.seed < 0:
+        raise ConfigError(f"--seed must be a whole number of 0 or more, not {args.seed}.")
+    if args.levels is not None and args.levels < 2:
+        raise ConfigError(f"--levels must be at least 2 levels per factor, not {args.levels}.")
+    if args.fraction is not None and args.fraction < 1:
+        raise ConfigError(f"--fraction (p of 2^(k-p)) must be at least 1, not {args.fraction}.")
+    if args.generators is not None and args.fraction is not None:
+        n = len([g for g in args.generators.split(",") if g.strip()])
+        if n != args.fraction:
+            raise ConfigError(
+                f"--fraction {args.fraction} disagrees with the {n} generators of --generators "
+                f"{args.generators}; drop --fraction or give {args.fraction} generators."
+            )
+    if args.alpha is not None and args.alpha not in ("rotatable", "orthogonal"):
+        try:
+            alpha = float(args.alpha)
+        except ValueError:
+            alpha = None
+        if alpha is not None and not (math.isfinite(alpha) and alpha > 0):
+            raise ConfigError(f"--alpha must be a positive number, rotatable or orthogonal, not {args.alpha}.")
+    if args.step is not None and not (math.isfinite(args.step) and args.step > 0):
+        raise ConfigError(
+            f"--step must be > 0 coded units, not {args.step:g}; to go downhill add --descent "
+            "instead of a negative step."
+        )
+    if args.steps is not None and args.steps < 1:
+        raise ConfigError(f"--steps must be at least 1, not {args.steps}.")
+
+
+def _with_center(coded, center, what: str):
+    """``coded`` with ``center`` centre rows appended, checked against the run cap."""
+    import numpy as np
+
+    from demcal.doe.designs import check_center, check_run_count
+
+    center = check_center(center or 0)
+    check_run_count(coded.shape[0] + center, f"{what} with {center:,} centre points",
+                    "use fewer centre points")
+    return np.vstack([coded, np.zeros((center, coded.shape[1]))])
 
 
 def _factors(args):
@@ -62,13 +154,12 @@ def _factors(args):
 
 def build_design(args) -> Design:
     """The :class:`Design` described by parsed ``demcal design`` arguments."""
-    import numpy as np
-
     from demcal.doe.design import Design
     from demcal.doe.designs import (
         box_behnken, central_composite, fractional_factorial, full_factorial, plackett_burman,
     )
 
+    check_options(args)
     if args.kind == "steepest-ascent":
         return _steepest(args)
     factors = _factors(args)
@@ -76,21 +167,24 @@ def build_design(args) -> Design:
     if args.kind == "box-behnken":
         coded = box_behnken(k, 5 if args.center is None else args.center)
     elif args.kind == "ccd":
+        alpha = "rotatable" if args.alpha is None else args.alpha
         try:
-            alpha = float(args.alpha)
+            alpha = float(alpha)
         except ValueError:
-            alpha = args.alpha
-        coded = central_composite(k, args.ccd_type, alpha, 6 if args.center is None else args.center)
+            pass
+        coded = central_composite(k, args.ccd_type or "circumscribed", alpha,
+                                  6 if args.center is None else args.center)
     elif args.kind == "factorial":
-        coded = full_factorial([args.levels] * k)
-        coded = np.vstack([coded, np.zeros((args.center or 0, k))])
+        levels = 2 if args.levels is None else args.levels
+        coded = _with_center(full_factorial([levels] * k), args.center,
+                             f"a full factorial of {k} factors at {levels:,} levels")
     elif args.kind == "fractional":
-        gens = args.generators.split(",") if args.generators else None
+        gens = [g for g in args.generators.split(",") if g.strip()] if args.generators else None
         coded = fractional_factorial(k, args.fraction, gens)
-        coded = np.vstack([coded, np.zeros((args.center or 0, k))])
+        coded = _with_center(coded, args.center, f"a {coded.shape[0]}-run fractional factorial")
     else:  # plackett-burman
         coded = plackett_burman(k, args.runs)
-        coded = np.vstack([coded, np.zeros((args.center or 0, k))])
+        coded = _with_center(coded, args.center, f"a {coded.shape[0]}-run Plackett-Burman design")
     return Design(args.kind, tuple(factors), coded).randomized(args.seed)
 
 
@@ -105,7 +199,8 @@ def _steepest(args) -> Design:
     model = fit_response_surface(runs.coded, runs.responses[args.response], runs.factors, "linear",
                                  args.response)
     b = model.coef[1:]
-    path = steepest_ascent(b, args.step, args.steps, descent=args.descent)
+    path = steepest_ascent(b, 1.0 if args.step is None else args.step,
+                           5 if args.steps is None else args.steps, descent=args.descent)
     return Design("steepest-ascent", runs.factors, path)
 
 

@@ -60,6 +60,8 @@ class Design:
         """The same design with a run order drawn from ``seed`` (None: standard order)."""
         if seed is None:
             return Design(self.kind, self.factors, self.coded)
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ConfigError(f"the run-order seed must be a whole number of 0 or more, not {seed!r}.")
         rng = np.random.default_rng(seed)
         perm = rng.permutation(self.coded.shape[0])
         order = np.empty_like(perm)

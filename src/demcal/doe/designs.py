@@ -20,10 +20,57 @@ Sources
 from __future__ import annotations
 
 import itertools
+import math
+import numbers
 
 import numpy as np
 
 from demcal.errors import ConfigError
+
+#: Most runs a design may have: every run is a DEM simulation, so a larger design is a
+#: mistake (too many levels or factors), and building it could exhaust the memory.
+MAX_RUNS = 100_000
+
+
+def format_count(n: int) -> str:
+    """``n`` with thousands separators, or ``more than 10^d`` for astronomically large ones."""
+    n = int(n)
+    if n < 10**15:
+        return f"{n:,}"
+    return f"more than 10^{int(math.log10(n))}"
+
+
+def check_run_count(runs: int, what: str, advice: str) -> None:
+    """Refuse a design of more than :data:`MAX_RUNS` runs, before it is built.
+
+    Parameters
+    ----------
+    runs : int
+        Run count of the design, centre points included.
+    what : str
+        The design, e.g. ``"a full factorial of 2 factors at 400 levels"``.
+    advice : str
+        How to make it smaller, e.g. ``"use fewer levels or factors"``.
+    """
+    if runs > MAX_RUNS:
+        raise ConfigError(
+            f"{what} has {format_count(runs)} runs, more than the {MAX_RUNS:,} a design may have "
+            f"(every run is a DEM simulation); {advice}."
+        )
+
+
+def check_count(value, what: str, minimum: int = 0) -> int:
+    """``value`` as an int, refused unless it is a whole number of at least ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ConfigError(f"the {what} must be a whole number, not {value!r}.")
+    if value < minimum:
+        raise ConfigError(f"the {what} must be at least {minimum}, not {value}.")
+    return int(value)
+
+
+def check_center(center) -> int:
+    """A number of centre points: a whole number, 0 or more (callers check the run total)."""
+    return check_count(center, "number of centre points", 0)
 
 # ---------------------------------------------------------------------------------------
 # Box-Behnken
@@ -78,8 +125,10 @@ def box_behnken(k: int, center: int = 5) -> np.ndarray:
     """
     if k not in BOX_BEHNKEN_BLOCKS:
         raise ConfigError(f"Box-Behnken designs exist for 3 to 7 factors, not {k}.")
-    if center < 0:
-        raise ConfigError("the number of centre points cannot be negative.")
+    center = check_center(center)
+    check_run_count(BOX_BEHNKEN_RUNS[k] + center,
+                    f"a Box-Behnken design of {k} factors with {center:,} centre points",
+                    "use fewer centre points")
     rows = []
     for block in BOX_BEHNKEN_BLOCKS[k]:
         sub = _two_level_full(len(block))
@@ -111,10 +160,17 @@ def full_factorial(levels) -> np.ndarray:
         Rows in standard order, first factor changing fastest.
     """
     if isinstance(levels, (int, np.integer)):
-        levels = [2] * int(levels)
+        levels = [2] * check_count(levels, "number of factors of a factorial", 1)
     levels = [int(n) for n in levels]
     if not levels or min(levels) < 2:
         raise ConfigError("a factorial needs at least one factor with at least two levels.")
+    runs = math.prod(levels)
+    if len(set(levels)) == 1:
+        what = (f"a full factorial of {len(levels)} factor{'s' if len(levels) > 1 else ''} "
+                f"at {levels[0]:,} levels")
+    else:
+        what = f"a full factorial at {' x '.join(map(str, levels))} levels"
+    check_run_count(runs, what, "use fewer levels or factors, or a fractional design")
     grids = [np.linspace(-1.0, 1.0, n) for n in levels]
     rows = itertools.product(*grids[::-1])
     return np.array([r[::-1] for r in rows], dtype=float)
@@ -162,6 +218,8 @@ def fractional_factorial(k: int, p: int | None = None, generators=None) -> np.nd
     numpy.ndarray
         ``(2^(k-p), k)`` coded matrix; the base factors in standard order.
     """
+    if p is not None:
+        p = check_count(p, "number of generators p of a 2^(k-p) fraction", 1)
     if generators is None:
         if p is None:
             raise ConfigError("give either the number of generators p or the generators.")
@@ -172,28 +230,62 @@ def fractional_factorial(k: int, p: int | None = None, generators=None) -> np.nd
             )
         generators = FRACTION_GENERATORS[(k, p)]
     generators = [g.replace(" ", "").upper() for g in generators]
+    if p is not None and p != len(generators):
+        raise ConfigError(
+            f"p = {p} disagrees with the {len(generators)} generators given "
+            f"({', '.join(generators)}); give one generator per generated factor."
+        )
     p = len(generators)
+    if not 1 <= k <= len(_LETTERS):
+        raise ConfigError(f"fractional factorials are named for 1 to {len(_LETTERS)} factors, not {k}.")
     base = k - p
     if base < 1:
         raise ConfigError(f"a 2^({k}-{p}) fraction has no base factors left.")
     letters = _LETTERS[:k]
-    design = np.zeros((2**base, k))
-    design[:, :base] = _two_level_full(base)
+    check_run_count(2**base, f"a 2^({k}-{p}) fractional factorial",
+                    "use fewer factors or more generators")
+    parsed, words = {}, {}
     for g in generators:
         try:
             lhs, rhs = g.split("=")
         except ValueError:
             raise ConfigError(f"cannot read generator {g!r}; write it like D=ABC.") from None
         sign = -1.0 if rhs.startswith("-") else 1.0
-        rhs = rhs.lstrip("+-")
+        rhs = rhs[1:] if rhs[:1] in "+-" else rhs
         if len(lhs) != 1 or lhs not in letters[base:]:
             raise ConfigError(
                 f"generator {g!r} must define one of the factors {', '.join(letters[base:])}."
+            )
+        if lhs in parsed:
+            raise ConfigError(
+                f"factor {lhs} is defined by two generators ({parsed[lhs][2]} and {g}); define "
+                f"each of {', '.join(letters[base:])} once."
             )
         if not rhs or any(c not in letters[:base] for c in rhs):
             raise ConfigError(
                 f"generator {g!r} may only use the base factors {', '.join(letters[:base])}."
             )
+        if len(set(rhs)) != len(rhs):
+            raise ConfigError(
+                f"generator {g!r} repeats a base factor, which cancels out; write it as a product "
+                "of distinct base factors, e.g. D=ABC."
+            )
+        if len(rhs) < 2:
+            raise ConfigError(
+                f"generator {g!r} would alias {lhs} with the base factor {rhs} (identical columns); "
+                "use a product of two or more distinct base factors, e.g. D=AB."
+            )
+        word = frozenset(rhs)
+        if word in words:
+            raise ConfigError(
+                f"generators {words[word]!r} and {g!r} give the same column up to sign; use a "
+                "different product of base factors for each generated factor."
+            )
+        words[word] = g
+        parsed[lhs] = (sign, rhs, g)
+    design = np.zeros((2**base, k))
+    design[:, :base] = _two_level_full(base)
+    for lhs, (sign, rhs, _) in parsed.items():
         col = np.ones(2**base) * sign
         for c in rhs:
             col *= design[:, letters.index(c)]
@@ -309,6 +401,16 @@ def central_composite(
     """
     if k < 2:
         raise ConfigError("a central composite design needs at least two factors.")
+    center = check_center(center)
+    fraction_p = check_count(fraction_p, "number of generators p of the factorial part", 0)
+    if fraction_p >= k:
+        raise ConfigError(
+            f"the factorial part of a {k}-factor central composite design takes p = 0 to {k - 1} "
+            f"generators, not {fraction_p}."
+        )
+    check_run_count(2 ** (k - fraction_p) + 2 * k + center,
+                    f"a central composite design of {k} factors with {center:,} centre points",
+                    "use fewer factors or centre points, or a fractional factorial part")
     kind = {"ccc": "circumscribed", "cci": "inscribed", "ccf": "face-centred",
             "face": "face-centred", "face-centered": "face-centred"}.get(kind, kind)
     if kind not in ("circumscribed", "inscribed", "face-centred"):
@@ -320,9 +422,14 @@ def central_composite(
     elif isinstance(alpha, str):
         a = ccd_alpha(k, alpha, center, fraction_p)
     else:
-        a = float(alpha)
-        if a <= 0:
-            raise ConfigError("the CCD axial distance alpha must be positive.")
+        try:
+            a = float(alpha)
+        except (TypeError, ValueError):
+            raise ConfigError(
+                f"the CCD axial distance alpha must be rotatable, orthogonal or a number, not {alpha!r}."
+            ) from None
+        if not (math.isfinite(a) and a > 0):
+            raise ConfigError(f"the CCD axial distance alpha must be a positive number, not {alpha!r}.")
     fact = fractional_factorial(k, fraction_p) if fraction_p else _two_level_full(k)
     axial = np.zeros((2 * k, k))
     for i in range(k):
@@ -368,6 +475,17 @@ def steepest_ascent(
     numpy.ndarray
         ``(n_steps + 1, k)`` coded points, the origin first.
     """
+    try:
+        step = float(step)
+    except (TypeError, ValueError):
+        raise ConfigError(f"the step of the ascent path must be a number, not {step!r}.") from None
+    if not (math.isfinite(step) and step > 0):
+        raise ConfigError(
+            f"the step of the ascent path must be a positive number of coded units, not {step:g} "
+            "(follow steepest descent to go downhill)."
+        )
+    n_steps = check_count(n_steps, "number of steps along the ascent path", 1)
+    check_run_count(n_steps + 1, f"a path of {n_steps:,} steps", "use fewer steps")
     b = np.asarray(coefficients, dtype=float)
     if b.ndim != 1 or not np.any(b):
         raise ConfigError("the first-order model has no slope, so there is no ascent path.")

@@ -187,7 +187,26 @@ def overall_desirability(ds, importances) -> np.ndarray:
     return np.where(np.all(ds > 0, axis=0), out, 0.0)
 
 
-_GOAL = re.compile(r"^\s*(?P<resp>[^=]+?)\s*=\s*(?P<rest>.+)$")
+_GOAL = re.compile(r"^\s*(?P<resp>[^=]+?)\s*=\s*(?P<rest>.*)$")
+
+#: ``key=value`` options of a goal, per goal kind (a key a kind would ignore is refused).
+_GOAL_KEYS = {
+    "target": ("low", "high", "importance", "weight", "weight_low", "weight_high"),
+    "maximize": ("low", "high", "importance", "weight", "weight_low"),
+    "minimize": ("low", "high", "importance", "weight", "weight_low"),
+    "in_range": ("low", "high", "importance"),
+}
+_ALL_GOAL_KEYS = _GOAL_KEYS["target"]
+_COUNT_WORDS = ("no numbers", "one number", "two numbers", "three numbers")
+
+
+def _and(words) -> str:
+    words = list(words)
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def _count(n: int) -> str:
+    return _COUNT_WORDS[n] if n < len(_COUNT_WORDS) else f"{n} numbers"
 
 
 def parse_goal(spec: str) -> Goal:
@@ -195,32 +214,103 @@ def parse_goal(spec: str) -> Goal:
 
     Examples: ``beta=target:31.07``, ``y=max``, ``y=range:10:20``,
     ``y=target:31.07:low=30:high=33:importance=5:weight=2``.
+
+    * ``target:T`` takes exactly one number, the target;
+    * ``max`` and ``min`` take no numbers (limits as ``low=`` and ``high=``);
+    * ``range`` takes none (the data's range) or two, ``range:LOW:HIGH``;
+    * keys: ``low``, ``high``, ``importance`` (whole number 1..5), and for target, max
+      and min goals ``weight`` and ``weight_low`` (target goals also ``weight_high``).
+
+    Anything else (an unknown key, a key given twice or one the kind would ignore, a
+    wrong count of numbers) is a :class:`ConfigError` naming the expected syntax.
     """
     m = _GOAL.match(spec)
-    if not m:
-        raise ConfigError(f"cannot read goal {spec!r}; write it like beta=target:31.07 or y=max.")
+    if not m or not m["resp"].strip():
+        raise ConfigError(f"cannot read goal {spec!r}; name a response and its goal, like "
+                          "beta=target:31.07 or y=max.")
+    resp = m["resp"].strip()
     parts = [p.strip() for p in m["rest"].split(":") if p.strip()]
-    kind, nums, opts = parts[0], [], {}
-    try:
-        for p in parts[1:]:
-            if "=" in p:
-                k, v = p.split("=", 1)
-                opts[k.strip().lower()] = float(v)
-            else:
-                nums.append(float(p))
-    except ValueError:
-        raise ConfigError(f"cannot read the numbers in goal {spec!r}.") from None
-    kind = _KIND_ALIASES.get(kind.lower(), kind.lower())
+    examples = f"{resp}=max, {resp}=min, {resp}=range:LOW:HIGH or {resp}=target:T"
+    if not parts:
+        raise ConfigError(f"goal {spec!r} says nothing for {resp} to do; write it like {examples}.")
+    typed = parts[0]
+    kind = _KIND_ALIASES.get(typed.lower(), typed.lower())
+    if kind not in KINDS:
+        raise ConfigError(f"unknown goal {typed!r} in {spec!r}; write it like {examples}.")
+    nums, opts = [], {}
+    for p in parts[1:]:
+        if "=" in p:
+            key, value = (t.strip() for t in p.split("=", 1))
+            key = key.lower().replace("-", "_")
+            if key not in _GOAL_KEYS[kind]:
+                if key in _ALL_GOAL_KEYS:
+                    takers = ("target goals" if key == "weight_high"
+                              else "target, max and min goals")
+                    raise ConfigError(
+                        f"goal {spec!r} sets {key!r}, which a {typed} goal does not use; only "
+                        f"{takers} take it, and a {typed} goal takes {_and(_GOAL_KEYS[kind])}."
+                    )
+                import difflib
+
+                near = difflib.get_close_matches(key, _ALL_GOAL_KEYS, n=1, cutoff=0.6)
+                hint = f" (did you mean {near[0]!r}?)" if near else ""
+                raise ConfigError(
+                    f"goal {spec!r} has an unknown key {key!r}{hint}; the keys of a {typed} goal "
+                    f"are {_and(_GOAL_KEYS[kind])}."
+                )
+            if key in opts:
+                raise ConfigError(f"goal {spec!r} gives {key!r} twice; give it once.")
+            opts[key] = _goal_number(value, spec, f"{key}=")
+        elif p.lower().replace("-", "_") in _ALL_GOAL_KEYS:
+            raise ConfigError(f"key {p!r} in goal {spec!r} needs a value, e.g. {p}=5.")
+        else:
+            nums.append(_goal_number(p, spec, ""))
     kw = {}
     if kind == "target":
-        if not nums:
-            raise ConfigError(f"goal {spec!r} needs a target value, e.g. {m['resp']}=target:31.07.")
-        kw["target"] = nums.pop(0)
-    if kind == "in_range" and len(nums) >= 2:
-        kw["low"], kw["high"] = nums[0], nums[1]
-    w = opts.get("weight")
+        if len(nums) != 1:
+            raise ConfigError(
+                f"goal {spec!r} gives {_count(len(nums))}, but a target goal takes exactly one, "
+                f"the target: {resp}={typed}:T (limits as low= and high=)."
+            )
+        kw["target"] = nums[0]
+    elif kind == "in_range":
+        if len(nums) not in (0, 2):
+            raise ConfigError(
+                f"goal {spec!r} gives {_count(len(nums))}, but a range goal takes two numbers, "
+                f"{resp}={typed}:LOW:HIGH, or none for the data's range."
+            )
+        if nums:
+            clash = [k for k in ("low", "high") if k in opts]
+            if clash:
+                raise ConfigError(
+                    f"goal {spec!r} gives the limits twice (as numbers and as {clash[0]}=); "
+                    f"write {resp}={typed}:LOW:HIGH or {resp}={typed}:low=LOW:high=HIGH."
+                )
+            kw["low"], kw["high"] = nums
+    elif nums:
+        raise ConfigError(
+            f"goal {spec!r} gives {_count(len(nums))}, but a {typed} goal takes none: write "
+            f"{resp}={typed}, with limits as low= and high=, e.g. {resp}={typed}:low=10:high=20."
+        )
+    importance = opts.get("importance", 3)
+    if importance != int(importance):
+        raise ConfigError(f"importance in goal {spec!r} must be a whole number from 1 to 5, "
+                          f"not {importance:g}.")
+    w = opts.get("weight", 1.0)
     return Goal(
-        m["resp"].strip(), kind, low=opts.get("low", kw.get("low")), high=opts.get("high", kw.get("high")),
-        target=kw.get("target"), weight_low=opts.get("weight_low", w or 1.0),
-        weight_high=opts.get("weight_high", w or 1.0), importance=int(opts.get("importance", 3)),
+        resp, kind, low=opts.get("low", kw.get("low")), high=opts.get("high", kw.get("high")),
+        target=kw.get("target"), weight_low=opts.get("weight_low", w),
+        weight_high=opts.get("weight_high", w), importance=int(importance),
     )
+
+
+def _goal_number(text: str, spec: str, key: str) -> float:
+    """``text`` of goal ``spec`` as a finite float (``key`` like ``"low="`` for messages)."""
+    try:
+        value = float(text)
+    except ValueError:
+        what = f"the {key[:-1]} value {text!r}" if key else repr(text)
+        raise ConfigError(f"cannot read {what} in goal {spec!r} as a number.") from None
+    if not np.isfinite(value):
+        raise ConfigError(f"goal {spec!r} holds {key}{text}, which is not a finite number.")
+    return value
