@@ -6,6 +6,11 @@ the kernels it calls (a driver in ``forces.py`` inlines ``contact/*.py`` and
 ``geometry/kernels.py``). :func:`guard` hashes every engine source the drivers depend on
 and, when the hash differs from the one recorded next to the cache, deletes the
 engine's cache files so they are recompiled. Cheap (a few ms) and run once at import.
+
+It also touches the engine's Python files then. A process started before the change
+still compiles the old code, and may write it to the cache after the files were
+deleted; numba keys each cache index on the modification time of the file defining
+the functions, so with the new times such late entries are never loaded.
 """
 
 from __future__ import annotations
@@ -55,6 +60,8 @@ def guard() -> None:
             for f in d.iterdir():
                 if f.suffix in (".nbi", ".nbc"):
                     f.unlink(missing_ok=True)
+        for src in [*_HERE.glob("*.py"), *(_HERE / "contact").glob("*.py")]:
+            os.utime(src)
         base.mkdir(parents=True, exist_ok=True)
         stamp.write_text(digest)
     except OSError:  # read-only install: numba falls back to its own checks
