@@ -168,7 +168,8 @@ def run(args) -> dict:
         cli = getattr(args, key)
         p[key] = float(cli) if cli is not None else pk.get(key, default)
     if p["dt"] is None:
-        # 20 % of the Rayleigh time of the smallest sphere (as demcal's automatic step)
+        # 20 % of the Rayleigh time of the smallest sphere (demcal's automatic step is also
+        # capped at a tenth of the Hertz contact time; throughput.py passes demcal's step)
         g = p["shear_modulus"]
         nu = p["poisson_ratio"]
         rmin = float(rad.min())

@@ -38,7 +38,8 @@ def add_model_options(parser: argparse.ArgumentParser, factors_help: str, factor
     parser.add_argument("--factors", help=factors_help)
     parser.add_argument("--factor", action="append", default=[], metavar="NAME=LOW:HIGH",
                         help=factor_help)
-    parser.add_argument("--model", default="quadratic", help="linear, 2fi, quadratic or cubic")
+    parser.add_argument("--model", default="quadratic",
+                        help="linear, 2fi, quadratic or cubic (default: %(default)s)")
     parser.add_argument("--reduce", type=float, default=None, metavar="ALPHA", help=reduce_help)
 
 

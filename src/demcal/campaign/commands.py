@@ -31,7 +31,8 @@ def register(subparsers) -> None:
         help="write the campaign's HTML report and its tables (CSV, JSON)",
         description="Write one self-contained HTML report with every table and figure, plus CSV "
                     "and JSON of each table, into the campaign's work folder.")
-    _common(report)
+    _common(report, profile_help="bench profile whose runs are reported, instead of the file's "
+                                 "(e.g. paper); nothing is run")
     report.add_argument("--out", type=Path, help="report folder (default: WORKDIR/report)")
 
     demo = add_command(
@@ -40,13 +41,14 @@ def register(subparsers) -> None:
         description="Copy the residual-film-soil example campaigns into OUT, run them, calibrate "
                     "them and write the report.")
     demo.add_argument("--out", type=Path, default=Path("demo-output"), help="output folder (default: demo-output)")
-    demo.add_argument("--profile", default="quick", help="bench profile: quick (default) or paper")
+    demo.add_argument("--profile", default="quick", help="bench profile: tiny, quick (default) or paper")
     _execution(demo, scheduler=False)
 
 
-def _common(parser: argparse.ArgumentParser) -> None:
+def _common(parser: argparse.ArgumentParser,
+            profile_help: str = "bench profile to run instead of the file's (e.g. paper)") -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (TOML)")
-    parser.add_argument("--profile", help="bench profile to run instead of the file's (e.g. paper)")
+    parser.add_argument("--profile", help=profile_help)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 

@@ -40,8 +40,9 @@ def register(subparsers) -> None:
     p = add_command(
         subparsers, "design", run,
         help="generate a design of experiments (Box-Behnken, CCD, factorial, ...)",
-        description="Generate a design of experiments and write it as CSV (actual levels, "
-        "randomised run order, factor levels in '# factor' comment lines).",
+        description="Generate a design of experiments and write it as CSV (actual levels; "
+        "standard run order, randomised with --seed; with -o FILE, factor levels in "
+        "'# factor' comment lines).",
     )
     p.add_argument("kind", choices=KINDS, help="design type")
     p.add_argument("runs_csv", nargs="?", help="steepest-ascent only: runs of a first-order design")

@@ -24,9 +24,12 @@ def register(subparsers) -> None:
                     "photos give mean +- sd with outliers flagged. A bad photo is reported "
                     "and the others are measured.")
     repose.add_argument("photos", nargs="+", metavar="PHOTO")
-    repose.add_argument("--roi", help="region of interest x0,y0,x1,y1 [px]")
-    repose.add_argument("--base-y", type=float, help="row of the base line [px]")
-    repose.add_argument("--mm-per-px", type=float, help="scale for heights [mm/px]")
+    repose.add_argument("--roi", help="region of interest x0,y0,x1,y1 [px] (default: the whole photo)")
+    repose.add_argument("--base-y", type=float,
+                        help="row of the base line [px] (default: the lowest point of the heap's "
+                             "outline away from the photo's side edges)")
+    repose.add_argument("--mm-per-px", type=float,
+                        help="scale for heights and widths [mm/px] (default: none, so they are in px)")
     repose.add_argument("--band", default="0.1,0.9",
                         help="fit each flank between these fractions of the heap height "
                              "(default 0.1,0.9)")

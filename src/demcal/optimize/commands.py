@@ -31,10 +31,12 @@ def register(subparsers) -> None:
         "responses, run and std_order)",
         factor_help="actual low/high levels of a factor, for actual-unit answers",
         reduce_help="reduce each model by backward elimination first")
-    p.add_argument("--starts", type=int, default=30, help="random starting points")
-    p.add_argument("--seed", type=int, default=0, help="seed of the starting points")
+    p.add_argument("--starts", type=int, default=30,
+                   help="random starting points (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the starting points (default: %(default)s)")
     p.add_argument("--threshold", type=float, default=0.99,
-                   help="desirability that defines the solution set")
+                   help="desirability that defines the solution set (default: %(default)s)")
     p.add_argument("--max-solutions", type=int, default=None, help="print at most this many")
     p.add_argument("--plot", help="write the solution-set plot to this PNG or SVG file")
     add_json(p)
