@@ -8,14 +8,7 @@ import pytest
 from demcal.errors import ConfigError
 from demcal.particles.sizes import Fixed, Normal, SieveTable, Uniform, paper_sizes, size_distribution
 
-
-def _sentence(call) -> str:
-    """The ConfigError message of ``call()``, checked to be one line with no traceback."""
-    with pytest.raises(ConfigError) as info:
-        call()
-    message = str(info.value)
-    assert "\n" not in message and "Traceback" not in message, message
-    return message
+from sentences import one_sentence
 
 
 def test_fixed_and_uniform():
@@ -60,12 +53,12 @@ def test_sieve_table_reproduces_mass_fractions():
 def test_size_distribution_from_table():
     assert size_distribution(1.0) == Fixed(1.0)
     assert size_distribution({"kind": "uniform", "low": 0.5, "high": 1.5}) == Uniform(0.5, 1.5)
-    assert _sentence(lambda: size_distribution({"kind": "lognormal"})) == (
+    assert one_sentence(lambda: size_distribution({"kind": "lognormal"})) == (
         "unknown size distribution kind 'lognormal': use one of fixed, uniform, normal, sieve.")
     # the rest of this sentence is Python's own TypeError text
     assert re.fullmatch(r"bad keys for a uniform size distribution: .*unexpected keyword argument 'lo'\.",
-                        _sentence(lambda: size_distribution({"kind": "uniform", "lo": 0.5})))
-    assert _sentence(lambda: Uniform(1.5, 0.5)) == "uniform size high (0.5) must be >= low (1.5)."
-    assert _sentence(lambda: SieveTable((1e-3, 2e-3), (0.5, 0.5), 1e-3)) == (
+                        one_sentence(lambda: size_distribution({"kind": "uniform", "lo": 0.5})))
+    assert one_sentence(lambda: Uniform(1.5, 0.5)) == "uniform size high (0.5) must be >= low (1.5)."
+    assert one_sentence(lambda: SieveTable((1e-3, 2e-3), (0.5, 0.5), 1e-3)) == (
         "a sieve table needs k+1 increasing apertures [m] and k mass fractions, "
         "got 2 apertures and 2 fractions.")

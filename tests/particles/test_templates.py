@@ -32,6 +32,8 @@ from demcal.particles.templates import (
     two_sphere_paper,
 )
 
+from sentences import one_sentence
+
 
 def lens_volume(R, r, d):
     """MathWorld Sphere-Sphere Intersection, eq. (16)."""
@@ -164,24 +166,15 @@ def test_scaling_laws():
     assert direct.inertia_per_density == pytest.approx(s.inertia_per_density, rel=1e-4)
 
 
-def _sentence(call) -> str:
-    """The ConfigError message of ``call()``, checked to be one line with no traceback."""
-    with pytest.raises(ConfigError) as info:
-        call()
-    message = str(info.value)
-    assert "\n" not in message and "Traceback" not in message, message
-    return message
-
-
 def test_bad_templates_are_explained():
-    assert _sentence(lambda: ParticleTemplate.from_spheres([[0, 0, 0, -1.0]])) == (
+    assert one_sentence(lambda: ParticleTemplate.from_spheres([[0, 0, 0, -1.0]])) == (
         "every sphere of a particle template needs a radius > 0 [m].")
-    assert _sentence(lambda: ParticleTemplate.from_spheres([[0, 0, 0]])) == (
+    assert one_sentence(lambda: ParticleTemplate.from_spheres([[0, 0, 0]])) == (
         "a particle template needs spheres as a (k, 4) array of x, y, z, radius.")
     # the upper bound r1 + r2 = 9 mm is printed as a float sum (0.009000000000000001)
     assert re.fullmatch(r"two-sphere offset must be in \[0, 0\.009\d*\) m so the spheres overlap, "
-                        r"got 0\.01\.", _sentence(lambda: two_sphere_paper(offset=0.01)))
-    assert _sentence(lambda: sphere(0.001).scaled(0.0)) == "a template scale factor must be > 0, got 0.0."
+                        r"got 0\.01\.", one_sentence(lambda: two_sphere_paper(offset=0.01)))
+    assert one_sentence(lambda: sphere(0.001).scaled(0.0)) == "a template scale factor must be > 0, got 0.0."
 
 
 def test_sphere_inside_another_counts_once():

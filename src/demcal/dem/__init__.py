@@ -3,15 +3,21 @@
 Public API (stable)
 -------------------
 ``Simulation(materials, interactions, walls=None, gravity=(0, 0, -9.81), dt=None,
-contact_model="hertz_mindlin", rolling_model="type_a", dt_fraction=0.2,
+contact_model="hertz_mindlin", rolling_model=None, dt_fraction=0.2,
 impact_speed=2.0, skin=None, domain=None, threads=None)``
 
 * ``sim.add_particles(template_or_radius, positions, orientations=None, scales=None,
   velocities=None, angular_velocities=None, material=0, fixed=False, seed=0)`` ->
   indices of the new particles; allowed at any time, also from a reporter during a run
-  (insertion at a rate).
+  (insertion at a rate). Refused with one sentence: non-finite numbers, arrays of the
+  wrong shape, particles outside ``domain`` or larger than a ``Box`` they are placed in,
+  and particles overlapping another by more than ``Simulation.overlap_tolerance``
+  (10 %) of the smaller sphere radius (a settled bed's few per cent pass).
 * ``sim.remove_particles(mask_or_indices)``
-* ``sim.run(duration=None, steps=None, reporters=[...])``
+* ``sim.run(duration=None, steps=None, reporters=[...])``: ``steps`` a whole number;
+  a run by ``duration`` ends at that time even when particles added during the run
+  shrink the automatic step. A given ``dt`` is checked against the stable limit again
+  after every ``add_particles``.
 * ``sim.state``: live arrays ``positions, velocities, omegas, quaternions, forces,
   torques, masses, inertias, radii, sphere_positions, sphere_body, ...`` (SI units)
 * ``sim.kinetic_energy()`` [J], ``sim.wall_forces()`` -> ``{group: (force, torque)}``,
@@ -22,9 +28,10 @@ impact_speed=2.0, skin=None, domain=None, threads=None)``
 Contact models (``contact_model``): ``"hertz_mindlin"`` (EDEM Hertz-Mindlin no slip),
 ``"hysteretic_spring"`` (EDEM HSCM, the paper's Eq. 1-3), ``"linear"``; or a
 :class:`ContactModel` naming one sub-model per slot. Rolling models
-(``rolling_model``): ``"none"``, ``"type_a"`` (EDEM constant directional torque),
-``"cdt"`` (relative velocity, LIGGGHTS), ``"type_c"`` (elastic-plastic spring-dashpot,
-Ai et al. 2011). Equations and sources are in :mod:`demcal.dem.contact`.
+(``rolling_model``): ``"none"``, ``"type_a"`` (EDEM constant directional torque, the
+default), ``"cdt"`` (relative velocity, LIGGGHTS), ``"type_c"`` (elastic-plastic
+spring-dashpot, Ai et al. 2011). A ``ContactModel`` carries its own ``rolling``; a
+``rolling_model`` that differs from it is refused (name the rolling model once). Equations and sources are in :mod:`demcal.dem.contact`.
 
 Reporters (:mod:`demcal.dem.reporters`): ``ProgressReporter``, ``EnergyReporter``,
 ``BlowUpDetector``, ``VTKReporter``, ``CheckpointReporter``, ``Callback``.

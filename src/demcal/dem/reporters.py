@@ -98,37 +98,95 @@ class BlowUpDetector(Reporter):
                 "stiffnesses; reduce dt (or dt_fraction).")
 
 
-class ProgressReporter(Reporter):
-    """tqdm progress bar with simulated time, ETA and particle-steps per second."""
+class _LogLines:
+    """A file for tqdm when the output is not a terminal (a batch job's log): each
+    update goes on a line of its own instead of being overwritten with ``\\r``."""
 
-    def __init__(self, interval=200, description="DEM", file=None, disable=None):
+    def __init__(self, file):
+        self._file = file
+        self._open = False  # the current line has text and no newline yet
+
+    def write(self, text):
+        for i, chunk in enumerate(text.split("\r")):
+            if i and self._open:
+                self._file.write("\n")
+                self._open = False
+            chunk = chunk.rstrip(" ")  # tqdm's padding over a longer previous status
+            if chunk:
+                self._file.write(chunk)
+                self._open = not chunk.endswith("\n")
+
+    def flush(self):
+        getattr(self._file, "flush", lambda: None)()
+
+    def __getattr__(self, name):  # encoding, isatty, ... of the real file
+        return getattr(self._file, name)
+
+
+def _is_terminal(file) -> bool:
+    try:
+        return bool(file.isatty())
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+class ProgressReporter(Reporter):
+    """tqdm progress bar with simulated time, ETA and particle-steps per second.
+
+    It writes to ``file`` (default ``sys.stderr``) whether or not that is a terminal:
+    in a batch job or a log it prints one plain line per update, at most every
+    ``log_interval`` seconds (and the final state when the run ends). ``disable=True``
+    turns it off; ``disable=None`` is tqdm's rule (off when not a terminal).
+    """
+
+    def __init__(self, interval=200, description="DEM", file=None, disable=False,
+                 log_interval=10.0):
         super().__init__(interval)
+        if not (isinstance(log_interval, (int, float)) and not isinstance(log_interval, bool)
+                and math.isfinite(log_interval) and log_interval >= 0):
+            raise ConfigError(f"ProgressReporter log_interval must be a number of seconds >= 0, "
+                              f"got {log_interval!r}.")
         self.description = description
         self.file = file
         self.disable = disable
+        self.log_interval = float(log_interval)
         self._bar = None
 
     def start(self, sim, total_steps):
         super().start(sim, total_steps)
+        import sys
+
         from tqdm.auto import tqdm
+        file = sys.stderr if self.file is None else self.file
+        options = {}
+        if not _is_terminal(file):
+            file = _LogLines(file)
+            options = dict(mininterval=self.log_interval, ascii=True)
         self._bar = tqdm(total=total_steps, desc=self.description, unit="step",
-                         file=self.file, disable=self.disable, dynamic_ncols=True)
+                         file=file, disable=self.disable, dynamic_ncols=True, **options)
         self._t0 = _time.perf_counter()
         self._last = sim.step_count
         self._psteps = 0.0
 
-    def report(self, sim):
+    def _advance(self, sim):
+        """Count the steps since the last call and set the postfix to ``sim``'s state
+        (without drawing: the following update draws, throttled by tqdm)."""
         now = _time.perf_counter()
         n = sim.step_count - self._last
         self._psteps += n * sim.n_particles
         self._last = sim.step_count
         rate = self._psteps / max(now - self._t0, 1e-9)
-        self._bar.set_postfix_str(f"t={sim.time:.4g} s, {rate:.3g} particle-steps/s")
-        self._bar.update(n)
+        self._bar.set_postfix_str(f"t={sim.time:.4g} s, {rate:.3g} particle-steps/s",
+                                  refresh=False)
+        return n
+
+    def report(self, sim):
+        self._bar.update(self._advance(sim))
 
     def finish(self, sim):
         if self._bar is not None:
-            self._bar.update(sim.step_count - self._last)
+            # the last report may be steps behind the end: show the final time
+            self._bar.update(self._advance(sim))
             self._bar.close()
             self._bar = None
 

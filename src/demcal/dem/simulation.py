@@ -6,6 +6,7 @@ See :mod:`demcal.dem` for an overview and an example.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -106,6 +107,51 @@ def _closed_up(perm, kept):
     return rank[perm[kept]]
 
 
+def _is_real(x) -> bool:
+    """A real number (Python or numpy scalar), not a bool."""
+    return isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_))
+
+
+def _is_integer(x) -> bool:
+    """A whole number (Python or numpy integer), not a bool."""
+    return isinstance(x, numbers.Integral) and not isinstance(x, (bool, np.bool_))
+
+
+def _gravity_array(value):
+    """``value`` as a float (3,) array; ConfigError unless three finite numbers."""
+    try:
+        g = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        g = None
+    if g is None or g.size != 3 or not np.all(np.isfinite(g)):
+        raise ConfigError(f"gravity must be three finite numbers [m/s2], got {value!r}; "
+                          "give e.g. gravity=(0, 0, -9.81).")
+    return g.reshape(3)
+
+
+def _floats(value, name, unit):
+    """``value`` as a float array; ConfigError naming ``name`` if it is not numbers."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be numbers [{unit}], got {value!r}.") from None
+
+
+def _rows(value, n, width, name, unit):
+    """One row for all ``n`` particles, ``(width,)`` or ``(1, width)``, or one row per
+    particle ``(n, width)``, as a new ``(n, width)`` float array of finite numbers."""
+    a = _floats(value, name, unit)
+    if not (a.shape == (width,) or (a.ndim == 2 and a.shape[1] == width
+                                    and a.shape[0] in (1, n))):
+        raise ConfigError(f"{name} [{unit}] must be one ({width},) row for all particles "
+                          f"or an ({n}, {width}) array (one row per particle), got shape "
+                          f"{a.shape}.")
+    if not np.all(np.isfinite(a)):
+        raise ConfigError(f"{name} must be finite numbers [{unit}], got a NaN or an "
+                          "infinite value.")
+    return np.broadcast_to(a, (n, width)).copy()
+
+
 def _random_quaternions(n, rng):
     """Uniform random rotations (Shoemake 1992, Graphics Gems III)."""
     u1, u2, u3 = rng.random((3, n))
@@ -129,14 +175,22 @@ class Simulation:
         Walls (rows per ``.coord/WALLS.md``); their ``material`` indices refer to
         ``materials``.
     gravity : 3 floats
-        Gravitational acceleration [m/s2]; may be changed between runs
-        (``sim.gravity[:] = ...``), e.g. to tilt a plane exactly.
+        Gravitational acceleration [m/s2]; may be changed between runs or from a
+        reporter (``sim.gravity[:] = ...`` or ``sim.gravity = (gx, gy, gz)``), e.g. to
+        tilt a plane exactly. It is checked (three finite numbers) at every run.
     dt : float, optional
         Time step [s]. Default: ``dt_fraction`` of the Rayleigh time, capped at a tenth
-        of the shortest contact duration (:mod:`demcal.dem.timestep`). A step above the
-        stable limit raises :class:`ConfigError`.
+        of the shortest contact duration (:mod:`demcal.dem.timestep`), derived again
+        whenever particles are added. A given step is checked against the stable limit
+        of the particles present at the first run and again after every
+        :meth:`add_particles`; above it the run raises :class:`ConfigError`.
     contact_model : {"hertz_mindlin", "hysteretic_spring", "linear"} or ContactModel
-    rolling_model : {"type_a", "cdt", "type_c", "none"}
+    rolling_model : {"type_a", "cdt", "type_c", "none"}, optional
+        Rolling resistance. With a preset name for ``contact_model`` the default is
+        ``"type_a"``. A :class:`ContactModel` names its own rolling model (its
+        ``rolling``, default ``"type_a"``): then leave ``rolling_model`` unset or give
+        the same model; a different one is refused rather than one of the two being
+        ignored (write ``ContactModel(..., rolling="type_c")``).
     dt_fraction : float
         Fraction of the Rayleigh time for the automatic step (default 0.2).
     impact_speed : float
@@ -157,7 +211,7 @@ class Simulation:
     """
 
     def __init__(self, materials, interactions, walls=None, gravity=(0.0, 0.0, -9.81),
-                 dt=None, contact_model="hertz_mindlin", rolling_model="type_a",
+                 dt=None, contact_model="hertz_mindlin", rolling_model=None,
                  dt_fraction=0.2, impact_speed=2.0, skin=None, domain=None,
                  threads=None, backend="cpu"):
         if backend not in BACKENDS:
@@ -166,32 +220,48 @@ class Simulation:
         self.material_table = MaterialTable(materials, interactions)
         self.materials = self.material_table.materials
         if isinstance(contact_model, ContactModel):
-            self.contact_model = contact_model
             contact_model.ids()
+            if rolling_model is not None:
+                own = contact_model.ids()[3]
+                if ContactModel(rolling=rolling_model).ids()[3] != own:
+                    raise ConfigError(
+                        f"rolling_model {rolling_model!r} conflicts with the contact_model's "
+                        f"rolling {contact_model.rolling!r}; name the rolling model once: "
+                        f"ContactModel(..., rolling={rolling_model!r}), or leave "
+                        "rolling_model unset.")
+            self.contact_model = contact_model
         else:
-            self.contact_model = ContactModel.preset(contact_model, rolling_model)
+            self.contact_model = ContactModel.preset(
+                contact_model, "type_a" if rolling_model is None else rolling_model)
         self._models = np.array(self.contact_model.ids(), dtype=np.int64)
         self._table = np.ascontiguousarray(self.material_table.table)
-        self.gravity = np.array(gravity, dtype=float).reshape(3)
-        if not np.all(np.isfinite(self.gravity)):
-            raise ConfigError(f"gravity must be three finite numbers, got {gravity!r}.")
-        if dt is not None and not (isinstance(dt, (int, float)) and math.isfinite(dt)
-                                   and dt > 0):
-            raise ConfigError(f"dt must be a positive number of seconds, got {dt!r}.")
-        if not 0.0 < float(dt_fraction) <= 1.0:
-            raise ConfigError(f"dt_fraction must be in (0, 1], got {dt_fraction}.")
-        if not (impact_speed > 0):
-            raise ConfigError(f"impact_speed must be > 0 m/s, got {impact_speed}.")
+        self.gravity = gravity
+        if dt is not None:
+            if not (_is_real(dt) and math.isfinite(dt) and dt > 0):
+                raise ConfigError(f"dt must be a positive number of seconds, got {dt!r}.")
+            dt = float(dt)
+        if not (_is_real(dt_fraction) and 0.0 < dt_fraction <= 1.0):
+            raise ConfigError(f"dt_fraction must be in (0, 1], got {dt_fraction!r}.")
+        if not (_is_real(impact_speed) and math.isfinite(impact_speed)
+                and impact_speed > 0):
+            raise ConfigError(f"impact_speed must be a finite number > 0 m/s, got "
+                              f"{impact_speed!r}.")
         self._dt_user = dt
         self.dt_fraction = float(dt_fraction)
         self.impact_speed = float(impact_speed)
         self._dt = None
+        if skin is not None:
+            if not (_is_real(skin) and math.isfinite(skin) and skin > 0):
+                raise ConfigError(f"skin must be a finite number > 0 m, got {skin!r}.")
+            skin = float(skin)
         self._skin_user = skin
-        if skin is not None and not skin > 0:
-            raise ConfigError(f"skin must be > 0 m, got {skin}.")
         self.domain = None
         if domain is not None:
-            lo, hi = (np.asarray(v, dtype=float).reshape(3) for v in domain)
+            try:
+                lo, hi = (np.asarray(v, dtype=float).reshape(3) for v in domain)
+            except (TypeError, ValueError):
+                raise ConfigError(f"domain must be (lo, hi), two corners of three numbers "
+                                  f"each [m], got {domain!r}.") from None
             if not np.all(hi > lo):
                 raise ConfigError(f"domain must be (lo, hi) with hi > lo, got {domain!r}.")
             self.domain = (lo, hi)
@@ -199,9 +269,9 @@ class Simulation:
             # numba's thread count: the cores, or what NUMBA_NUM_THREADS or a campaign
             # worker (numba.set_num_threads) allows this process
             threads = numba.get_num_threads()
-        if not (isinstance(threads, int) and not isinstance(threads, bool) and threads >= 1):
+        if not (_is_integer(threads) and threads >= 1):
             raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
-        self.threads = threads
+        self.threads = int(threads)
         self._pool = None
         self.walls = walls
         self.time = 0.0
@@ -230,6 +300,23 @@ class Simulation:
         self.sorts = 0             # spatial reorderings (see sort_threshold)
         self._row_width = 16   # scratch width of the neighbour search (grows as needed)
         self._wall_width = 4
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravitational acceleration [m/s2], a live (3,) array: change it in place
+        (``sim.gravity[:] = ...``) or assign three numbers; checked at every run."""
+        return self._gravity
+
+    @gravity.setter
+    def gravity(self, value):
+        self._gravity = _gravity_array(value)
+
+    def _check_gravity(self):
+        """ConfigError unless gravity (perhaps changed in place) is three finite numbers."""
+        g = self._gravity
+        if not np.all(np.isfinite(g)):
+            raise ConfigError(f"gravity must be three finite numbers [m/s2], got "
+                              f"{g.tolist()}; set e.g. sim.gravity[:] = (0, 0, -9.81).")
 
     # ------------------------------------------------------------------ allocation --
     def _alloc_bodies(self, nb, ns):
@@ -287,6 +374,13 @@ class Simulation:
         """Number of spheres (contact entities)."""
         return self._s["pos"].shape[0]
 
+    #: Deepest accepted overlap of a new particle's sphere with a sphere of another
+    #: particle, as a fraction of the smaller radius. Beds copied from a settled
+    #: checkpoint overlap a few per cent (up to 7 % in the benchmark's beds of the
+    #: paper's soft soil); particles placed on top of each other by mistake would be
+    #: flung apart. Pairs of fixed particles are not checked.
+    overlap_tolerance = 0.25
+
     def add_particles(self, template, positions, orientations=None, scales=None,
                       velocities=None, angular_velocities=None, material=0, fixed=False,
                       seed=0):
@@ -300,26 +394,35 @@ class Simulation:
             ``inertia_per_density`` (see :mod:`demcal.particles.templates`).
         positions : (n, 3) array
             Centres of mass [m].
-        orientations : (n, 4) quaternions (w, x, y, z), "random", or None (identity).
+        orientations : (n, 4) or (4,) quaternions (w, x, y, z), "random", or None
+            (identity).
         scales : float or (n,) array
             Size factors (radii and offsets times s, mass s^3, inertia s^5).
         velocities, angular_velocities : (3,) or (n, 3) arrays [m/s], [rad/s].
         material : int or str
             Material of the particles.
-        fixed : bool
+        fixed : bool or (n,) bools
             Fixed particles never move (obstacles).
         seed : int
             Seed for ``orientations="random"``.
+
+        All input is checked before anything is added: finite numbers of the right
+        shapes; no particle outside ``domain`` or larger than a :class:`Box` wall it is
+        placed in; no sphere overlapping a sphere of another particle (new or present)
+        by more than :attr:`overlap_tolerance` of the smaller radius. A given ``dt`` is
+        checked again against the new particles at the next step.
         """
-        pos = np.asarray(positions, dtype=float)
+        pos = _floats(positions, "positions", "m")
         if pos.ndim == 1:
             pos = pos.reshape(1, -1)
         if pos.ndim != 2 or pos.shape[1] != 3 or not np.all(np.isfinite(pos)):
             raise ConfigError("positions must be an (n, 3) array of finite numbers [m].")
         n = pos.shape[0]
-        if isinstance(template, (int, float, np.floating, np.integer)):
-            if not float(template) > 0:
-                raise ConfigError(f"particle radius must be > 0 m, got {template}.")
+        if isinstance(template, (int, float, np.floating, np.integer)) and not isinstance(
+                template, (bool, np.bool_)):
+            if not (math.isfinite(template) and template > 0):
+                raise ConfigError(f"particle radius must be a finite number > 0 m, got "
+                                  f"{template}.")
             tpl = _SphereTemplate(float(template))
         else:
             tpl = template
@@ -329,16 +432,28 @@ class Simulation:
                                       "demcal.particles.templates template or a radius.")
         mi = self.material_table.index(material)
         rho = self.materials[mi].density
-        self._release_order()
         radii = np.asarray(tpl.radii, dtype=float).reshape(-1)
         centers = np.asarray(tpl.centers, dtype=float).reshape(-1, 3)
         ipd = np.asarray(tpl.inertia_per_density, dtype=float).reshape(3)
-        if radii.size != centers.shape[0] or np.any(radii <= 0):
-            raise ConfigError("template radii must be positive, one per centre.")
-        sc = np.broadcast_to(np.asarray(1.0 if scales is None else scales, dtype=float),
-                             (n,)).copy()
-        if np.any(~np.isfinite(sc)) or np.any(sc <= 0):
-            raise ConfigError("scales must be positive numbers.")
+        if (radii.size != centers.shape[0] or not np.all(np.isfinite(radii))
+                or np.any(radii <= 0) or not np.all(np.isfinite(centers))):
+            raise ConfigError("template radii must be finite and positive, one per centre "
+                              "(finite too).")
+        if not (math.isfinite(tpl.volume) and tpl.volume > 0
+                and np.all(np.isfinite(ipd)) and np.all(ipd > 0)):
+            raise ConfigError("template volume and inertia_per_density must be finite and "
+                              "positive.")
+        k = radii.size
+        if k == 1 and not np.allclose(centers, 0.0):
+            raise ConfigError("a one-sphere template must have its centre at the origin.")
+        sc = _floats(1.0 if scales is None else scales, "scales", "-")
+        if not (sc.ndim == 0 or sc.shape in ((1,), (n,))):
+            raise ConfigError(f"scales must be one number or one per particle (n = {n}), "
+                              f"got shape {sc.shape}.")
+        sc = np.broadcast_to(sc, (n,)).copy()
+        if not (np.all(np.isfinite(sc)) and np.all(sc > 0)):
+            raise ConfigError("scales must be finite positive numbers, got "
+                              f"{sc[~(np.isfinite(sc) & (sc > 0))][0]}.")
         if isinstance(orientations, str):
             if orientations != "random":
                 raise ConfigError(
@@ -347,16 +462,24 @@ class Simulation:
         elif orientations is None:
             quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
         else:
-            quat = np.asarray(orientations, dtype=float).reshape(n, 4)
+            quat = _rows(orientations, n, 4, "orientations", "w, x, y, z")
             norm = np.linalg.norm(quat, axis=1, keepdims=True)
-            if np.any(norm == 0) or not np.all(np.isfinite(quat)):
+            if np.any(norm == 0):
                 raise ConfigError("orientations must be non-zero quaternions (w, x, y, z).")
             quat = quat / norm
-        vel = np.broadcast_to(np.asarray(0.0 if velocities is None else velocities,
-                                         dtype=float), (n, 3)).copy()
-        omg = np.broadcast_to(np.asarray(0.0 if angular_velocities is None
-                                         else angular_velocities, dtype=float), (n, 3)).copy()
-        # sphere extents for the domain check
+        vel = (np.zeros((n, 3)) if velocities is None
+               else _rows(velocities, n, 3, "velocities", "m/s"))
+        omg = (np.zeros((n, 3)) if angular_velocities is None
+               else _rows(angular_velocities, n, 3, "angular_velocities", "rad/s"))
+        fx = np.asarray(fixed)
+        if fx.ndim == 0 and isinstance(fx.item(), (bool, int)):
+            fx = np.full(n, bool(fx))
+        elif fx.shape == (n,) and fx.dtype == np.bool_:
+            fx = fx.copy()
+        else:
+            raise ConfigError(f"fixed must be True, False or one bool per particle "
+                              f"(n = {n}), got {fixed!r}.")
+        # sphere extents for the domain and box checks
         rmax_particle = (np.linalg.norm(centers, axis=1) + radii).max() * sc
         if self.domain is not None:
             lo, hi = self.domain
@@ -371,16 +494,27 @@ class Simulation:
             if np.any(out):
                 raise ConfigError(f"{int(out.sum())} particle position(s) lie outside the "
                                   "domain; move them inside or enlarge domain.")
+        self._check_boxes(pos, 2 * rmax_particle)
+        self._release_order()
+        nb0, ns0 = self.n_particles, self.n_spheres
+        off = (centers[None, :, :] * sc[:, None, None]).reshape(-1, 3)
+        rad = (radii[None, :] * sc[:, None]).reshape(-1)
+        body = np.repeat(np.arange(nb0, nb0 + n, dtype=np.int64), k)
+        spos = np.empty((n * k, 3))
+        for a in range(n):
+            q = quat[a]
+            for c in range(k):
+                o = off[a * k + c]
+                spos[a * k + c] = pos[a] + np.array(
+                    _integ.quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2]))
+        self._check_overlaps(spos, rad, body, np.repeat(fx, k))
         try:
             tid = next(k for k, t in enumerate(self.templates) if t is tpl)
         except StopIteration:
             self.templates.append(tpl)
             tid = len(self.templates) - 1
-        k = radii.size
         mass = rho * tpl.volume * sc ** 3
         inertia = rho * ipd[None, :] * sc[:, None] ** 5
-        if k == 1 and not np.allclose(centers, 0.0):
-            raise ConfigError("a one-sphere template must have its centre at the origin.")
         # angular momentum L = R I R^T w
         angmom = np.empty((n, 3))
         for a in range(n):
@@ -388,7 +522,6 @@ class Simulation:
             wb = _integ.quat_rotate_inv(q[0], q[1], q[2], q[3], *omg[a])
             lb = np.array(wb) * inertia[a]
             angmom[a] = _integ.quat_rotate(q[0], q[1], q[2], q[3], *lb)
-        nb0, ns0 = self.n_particles, self.n_spheres
         b, s = self._b, self._s
         start_new = ns0 + k * np.arange(1, n + 1, dtype=np.int64)
         self._b = dict(
@@ -404,18 +537,8 @@ class Simulation:
             mat=np.concatenate([b["mat"], np.full(n, mi, np.int64)]),
             template=np.concatenate([b["template"], np.full(n, tid, np.int64)]),
             scale=np.concatenate([b["scale"], sc]),
-            fixed=np.concatenate([b["fixed"], np.full(n, bool(fixed))]),
+            fixed=np.concatenate([b["fixed"], fx]),
             start=np.concatenate([b["start"], start_new]))
-        off = (centers[None, :, :] * sc[:, None, None]).reshape(-1, 3)
-        rad = (radii[None, :] * sc[:, None]).reshape(-1)
-        body = np.repeat(np.arange(nb0, nb0 + n, dtype=np.int64), k)
-        spos = np.empty((n * k, 3))
-        for a in range(n):
-            q = quat[a]
-            for c in range(k):
-                o = off[a * k + c]
-                spos[a * k + c] = pos[a] + np.array(
-                    _integ.quat_rotate(q[0], q[1], q[2], q[3], o[0], o[1], o[2]))
         self._s = dict(body=np.concatenate([s["body"], body]),
                        offset=np.concatenate([s["offset"], off]),
                        radius=np.concatenate([s["radius"], rad]),
@@ -432,15 +555,98 @@ class Simulation:
                                                np.full(n * k, -1, np.int64)])
         self._needs_rebuild = True
         self._forces_valid = False
-        if self._dt is not None and self._dt_user is None:
-            self._dt = None  # re-derive: smaller particles may need a smaller step
+        # re-derive the automatic step (smaller particles may need a smaller one), or
+        # check a given step against the new particles, at the next step
+        self._dt = None
         return np.arange(nb0, nb0 + n)
 
+    def _check_boxes(self, pos, diameter):
+        """ConfigError when a particle (bounding ``diameter`` [m]) is placed inside a
+        :class:`~demcal.geometry.Box` wall (its current pose) that it cannot fit in: the
+        smallest inner dimension of a closed box, the smaller width of an open one."""
+        for g, wall in enumerate(getattr(self.walls, "walls", None) or ()):
+            if getattr(wall, "kind_name", None) != "box":
+                continue
+            lower = np.asarray(wall.lower, dtype=float)
+            upper = np.asarray(wall.upper, dtype=float)
+            rot, trans = wall.motion.transform(self.time)
+            ref = (pos - trans) @ rot   # R^T (x - T): the box's reference frame
+            inside = np.all((ref > lower) & (ref < upper), axis=1)
+            dims = upper - lower
+            size = float((dims[:2] if getattr(wall, "open_top", False) else dims).min())
+            big = inside & (diameter > size)
+            if np.any(big):
+                name = self.wall_names[g] if g < len(self.wall_names) else f"box{g}"
+                raise ConfigError(
+                    f"a particle {diameter[big].max():.3g} m across is placed inside box "
+                    f"{name!r}, whose smallest inner dimension is {size:.3g} m; enlarge the "
+                    "box or shrink the particle.")
+
+    def _check_overlaps(self, spos, rad, body, fixed):
+        """ConfigError naming the deepest overlap, beyond :attr:`overlap_tolerance` of
+        the smaller radius, of a new sphere (``spos``, ``rad``, owning ``body`` index
+        to be, ``fixed``) with a sphere of another particle, new or present."""
+        if spos.shape[0] == 0:
+            return
+        from scipy.spatial import cKDTree
+        s = self._s
+        reach = float(rad.max())
+        if s["pos"].shape[0]:
+            reach += float(s["radius"].max())
+            lo, hi = spos.min(axis=0) - reach, spos.max(axis=0) + reach
+            near = np.nonzero(np.all((s["pos"] >= lo) & (s["pos"] <= hi), axis=1))[0]
+        else:
+            reach *= 2.0
+            near = np.zeros(0, np.int64)
+        m = near.size
+        p = np.concatenate([s["pos"][near], spos])
+        r = np.concatenate([s["radius"][near], rad])
+        bd = np.concatenate([s["body"][near], body])
+        fx = np.concatenate([self._b["fixed"][s["body"][near]], fixed])
+        ij = cKDTree(p).query_pairs(reach, output_type="ndarray")
+        i, j = ij[:, 0], ij[:, 1]
+        sel = (np.maximum(i, j) >= m) & (bd[i] != bd[j]) & ~(fx[i] & fx[j])
+        i, j = i[sel], j[sel]
+        depth = r[i] + r[j] - np.linalg.norm(p[i] - p[j], axis=1)
+        rel = depth / np.minimum(r[i], r[j])
+        bad = rel > self.overlap_tolerance
+        if not np.any(bad):
+            return
+        # pairs of particles (a clump may overlap another with several spheres)
+        pairs = np.unique(np.sort(np.stack([bd[i][bad], bd[j][bad]], axis=1), axis=1),
+                          axis=0)
+        w = np.argmax(np.where(bad, rel, -np.inf))
+        a, b = sorted((int(bd[i[w]]), int(bd[j[w]])))
+        more = (f", and {len(pairs) - 1} more pair(s) overlap too" if len(pairs) > 1
+                else "")
+        raise ConfigError(
+            f"particles {a} and {b} overlap by {depth[w]:.3g} m ({rel[w]:.0%} of the "
+            f"smaller sphere's radius; at most {self.overlap_tolerance:.0%} is "
+            f"accepted){more}; place the particles further apart or make them smaller.")
+
     def remove_particles(self, which):
-        """Remove particles given by a boolean mask or indices (history of the others kept)."""
+        """Remove particles given by a boolean mask (one entry per particle) or indices
+        (negative ones count from the end); the others keep their contact history."""
+        nb = self.n_particles
+        w = np.asarray(which)
+        if w.dtype == np.bool_:
+            if w.shape != (nb,):
+                raise ConfigError(f"remove_particles: a mask needs one entry per particle "
+                                  f"({nb}), got shape {w.shape}.")
+        elif w.size == 0:
+            return
+        elif not np.issubdtype(w.dtype, np.integer):
+            raise ConfigError(f"remove_particles: give particle indices (whole numbers) or "
+                              f"a boolean mask, got {w.dtype} values.")
+        else:
+            bad = (w < -nb) | (w >= nb)
+            if np.any(bad):
+                raise ConfigError(f"remove_particles: index {int(w[bad].flat[0])} is out of "
+                                  f"range; there are {nb} particle(s) (indices 0 to "
+                                  f"{nb - 1}).")
         self._release_order()
-        keep = np.ones(self.n_particles, bool)
-        keep[np.asarray(which)] = False
+        keep = np.ones(nb, bool)
+        keep[w] = False
         if keep.all():
             return
         self._compact(keep)
@@ -929,22 +1135,34 @@ class Simulation:
         Reporters (OpenMM style) are objects with ``next_report(sim) -> int`` (steps until
         they next want data, >= 1) and ``report(sim)``; see :mod:`demcal.dem.reporters`.
         A reporter may add or remove particles, change gravity, or raise to stop.
+
+        A run by duration ends at the requested time to within half a step: when
+        particles added during the run shrink the automatic time step, the steps left
+        are counted again from the time left. A given ``dt`` never changes, so the run
+        takes exactly ``round(duration / dt)`` steps (reporters' ``start`` get that
+        count).
         """
         if (duration is None) == (steps is None):
             raise ConfigError("give run() exactly one of duration [s] or steps.")
+        if steps is not None and not (_is_real(steps) and math.isfinite(steps)
+                                      and steps == int(steps) and steps >= 0):
+            raise ConfigError(f"steps must be a whole number >= 0, got {steps!r}.")
+        if duration is not None and not (_is_real(duration) and math.isfinite(duration)
+                                         and duration >= 0):
+            raise ConfigError(f"duration must be a finite number of seconds >= 0, got "
+                              f"{duration!r}.")
+        self._check_gravity()
         if self.n_spheres:
             dt = self.dt
         else:
             dt = self._dt_user if self._dt_user else None
+        end = None   # the time a run by duration ends at [s]
         if steps is None:
-            if not duration >= 0:
-                raise ConfigError(f"duration must be >= 0 s, got {duration}.")
             if dt is None:
                 raise ConfigError("add particles (or give dt) before running by duration.")
             steps = int(round(duration / dt))
+            end = self.time + float(duration)
         steps = int(steps)
-        if steps < 0:
-            raise ConfigError(f"steps must be >= 0, got {steps}.")
         reporters = list(reporters)
         for r in reporters:
             if hasattr(r, "start"):
@@ -954,11 +1172,18 @@ class Simulation:
             while done < steps:
                 want = [max(1, int(r.next_report(self))) for r in reporters]
                 nxt = min([steps - done] + want)
+                self._check_gravity()
                 self._advance(nxt)
                 done += nxt
                 for r, k in zip(reporters, want):
                     if k == nxt:
                         r.report(self)
+                if end is not None and done < steps and self._dt is None \
+                        and self.n_spheres:
+                    # particles were added: the automatic step may have shrunk
+                    if self.dt != dt:
+                        dt = self.dt
+                        steps = done + max(0, int(round((end - self.time) / dt)))
         finally:
             self._user_order()
             for r in reporters:

@@ -16,6 +16,7 @@ moves, which lets :class:`~demcal.geometry.wallset.WallSet` skip updates.
 
 from __future__ import annotations
 
+import inspect
 import math
 from dataclasses import dataclass, field
 from typing import Callable
@@ -28,10 +29,51 @@ _I3 = np.eye(3)
 
 
 def _vec3(value, name: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise ConfigError(f"{name} must be three finite numbers, got {value!r}.")
     return arr
+
+
+def _real(value, name: str, what: str = "a finite number", ok=math.isfinite) -> float:
+    """``value`` as a float, or a ConfigError naming ``name`` when it is not a number
+    (strings, None, arrays) or fails ``ok``."""
+    v = math.nan
+    if not isinstance(value, (str, bytes, bool)):
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            pass
+    if not ok(v):
+        raise ConfigError(f"{name} must be {what}, got {value!r}.")
+    return v
+
+
+#: Tolerance of the rotation check on a :class:`FunctionMotion`'s ``R``: ``R R^T = I``
+#: and ``det R = 1`` to within this.
+ROTATION_TOL = 1e-9
+
+
+def _check_time_function(function, owner: str) -> None:
+    """Refuse a motion function that is not callable or cannot be called as ``f(t)``."""
+    if not callable(function):
+        raise ConfigError(
+            f"{owner} function must be a function of time t [s], got {type(function).__name__}."
+        )
+    try:
+        sig = inspect.signature(function)
+    except (TypeError, ValueError):  # builtins without a signature: trust them
+        return
+    try:
+        sig.bind(0.0)
+    except TypeError:
+        raise ConfigError(
+            f"{owner} function{sig} cannot be called with the time alone: define it as "
+            f"f(t) returning a displacement (3,) [m] or a tuple (R, T)."
+        ) from None
 
 
 def _unit(value, name: str) -> np.ndarray:
@@ -138,8 +180,8 @@ class Rotation(Motion):
     def __post_init__(self):
         object.__setattr__(self, "point", tuple(_vec3(self.point, "rotation point")))
         object.__setattr__(self, "axis", tuple(_unit(self.axis, "rotation axis")))
-        if not math.isfinite(self.angular_speed):
-            raise ConfigError(f"angular_speed must be finite, got {self.angular_speed}.")
+        object.__setattr__(self, "angular_speed", _real(
+            self.angular_speed, "Rotation angular_speed", "a finite number [rad/s]"))
         if not self.stop > self.start:
             raise ConfigError(
                 f"Rotation stop time ({self.stop}) must be after its start ({self.start})."
@@ -166,20 +208,75 @@ class FunctionMotion(Motion):
     """A user-given motion: ``function(t)`` returns either a displacement 3-vector [m]
     (pure translation) or a tuple ``(R, T)`` (rotation matrix, translation).
 
-    Velocities are central finite differences with step ``dt`` [s]:
+    Velocities are central finite differences with step ``dt`` [s] (finite, > 0):
     ``v = (x(t+dt) - x(t-dt)) / 2dt`` and ``[omega]x = R'(t) R(t)^T``.
+
+    ``R`` must be a 3 x 3 proper rotation (``R R^T = I`` and ``det R = 1`` within
+    :data:`ROTATION_TOL`) and ``T`` three finite numbers; anything else is refused with a
+    :class:`~demcal.errors.ConfigError` when the wall is moved.
     """
 
     function: Callable = field(default=lambda t: np.zeros(3))
     dt: float = 1e-6
 
+    def __post_init__(self):
+        _check_time_function(self.function, "FunctionMotion")
+        object.__setattr__(self, "dt", _real(
+            self.dt, "FunctionMotion dt", "a finite time step > 0 [s] (e.g. 1e-6)",
+            lambda x: math.isfinite(x) and x > 0.0))
+
     def transform(self, t):
         out = self.function(t)
-        if isinstance(out, tuple) and len(out) == 2:
-            rot = np.asarray(out[0], dtype=float).reshape(3, 3)
-            trans = np.asarray(out[1], dtype=float).reshape(3)
-            return rot, trans
-        return _I3.copy(), _vec3(out, "FunctionMotion displacement")
+        if isinstance(out, (tuple, list)) and len(out) == 2:
+            return self._rotation(out[0], t), self._translation(out[1], t)
+        try:
+            disp = np.asarray(out, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            disp = None
+        if disp is None or disp.shape != (3,) or not np.all(np.isfinite(disp)):
+            raise ConfigError(
+                f"FunctionMotion function(t) returned {out!r} at t = {t:g} s: return a "
+                f"displacement of three finite numbers [m] or a tuple (R, T)."
+            )
+        return _I3.copy(), disp
+
+    @staticmethod
+    def _rotation(value, t) -> np.ndarray:
+        try:
+            rot = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            rot = None
+        if rot is None or rot.shape != (3, 3) or not np.all(np.isfinite(rot)):
+            shape = ("not numeric" if rot is None else f"shape {rot.shape}"
+                     if rot.shape != (3, 3) else "non-finite values")
+            raise ConfigError(
+                f"FunctionMotion rotation R at t = {t:g} s must be a 3 x 3 array of finite "
+                f"numbers, got {shape}: return (R, T) with R a rotation matrix."
+            )
+        err = float(np.abs(rot @ rot.T - _I3).max())
+        det = float(np.linalg.det(rot))
+        if err > ROTATION_TOL or abs(det - 1.0) > ROTATION_TOL:
+            raise ConfigError(
+                f"FunctionMotion R at t = {t:g} s is not a rotation (|R R^T - I| = {err:.3g}, "
+                f"det R = {det:.6g}; need orthonormal with det +1 within {ROTATION_TOL:g}): "
+                f"build it with demcal.geometry.motion.rotation_matrix."
+            )
+        return rot
+
+    @staticmethod
+    def _translation(value, t) -> np.ndarray:
+        try:
+            trans = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            trans = None
+        if trans is None or trans.size != 3 or trans.ndim > 2 or not np.all(np.isfinite(trans)):
+            shape = ("not numeric" if trans is None else f"shape {trans.shape}"
+                     if trans.size != 3 or trans.ndim > 2 else "non-finite values")
+            raise ConfigError(
+                f"FunctionMotion translation T at t = {t:g} s must be three finite numbers "
+                f"[m], got {shape}: return (R, T) with T a 3-vector."
+            )
+        return trans.reshape(3)
 
     def twist(self, t):
         h = self.dt

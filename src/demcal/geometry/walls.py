@@ -12,6 +12,7 @@ All lengths are in metres [m]; direction vectors need not be normalised.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -34,12 +35,44 @@ __all__ = [
 ]
 
 
+def _number(value) -> float:
+    """``value`` as a float, NaN if it is not a number (strings and bools included)."""
+    if isinstance(value, (str, bytes, bool)):
+        return float("nan")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 def _positive(value, name: str, allow_zero: bool = False) -> float:
-    v = float(value)
+    v = _number(value)
     if not np.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
         raise ConfigError(f"{name} must be a finite number {bound} [m], got {value!r}.")
     return v
+
+
+def _material_index(material) -> int:
+    """A wall's material: a whole number >= 0, the position of its material in the list
+    given to :class:`~demcal.dem.simulation.Simulation` (walls are built before the
+    simulation, so they cannot look a material up by name)."""
+    if isinstance(material, str):
+        raise ConfigError(
+            f"walls take a material index (the material's position in the list given to "
+            f"Simulation, e.g. material=1), not a name: got {material!r}."
+        )
+    ok = False
+    if isinstance(material, (int, np.integer)) and not isinstance(material, (bool, np.bool_)):
+        ok = material >= 0
+    elif isinstance(material, (float, np.floating)):
+        ok = bool(np.isfinite(material)) and material >= 0 and material == int(material)
+    if not ok:
+        raise ConfigError(
+            f"a wall material must be an index >= 0 (the material's position in the list "
+            f"given to Simulation), got {material!r}."
+        )
+    return int(material)
 
 
 def _row(point=None, direction=None, *values) -> np.ndarray:
@@ -63,9 +96,7 @@ class Wall:
         if name is not None and (not isinstance(name, str) or not name):
             raise ConfigError(f"a wall name must be a non-empty string, got {name!r}.")
         self.name = name
-        if int(material) != material or material < 0:
-            raise ConfigError(f"a wall material must be an index >= 0, got {material!r}.")
-        self.material = int(material)
+        self.material = _material_index(material)
         self.motion: Motion = as_motion(motion)
 
     def rows(self) -> tuple[np.ndarray, np.ndarray]:
@@ -354,7 +385,9 @@ class TriangleMesh(Wall):
 
     Build it from ``vertices (n, 3)`` and ``faces (m, 3)`` integer indices, or from
     ``triangles (m, 3, 3)`` with :meth:`from_triangles`, or from an ASCII or binary STL
-    file with :meth:`from_stl`. Degenerate (zero-area) triangles are dropped.
+    file with :meth:`from_stl` (every solid of an ASCII file; a malformed facet or a
+    binary file whose size does not match its triangle count is refused with a
+    :class:`~demcal.errors.DataError`). Degenerate (zero-area) triangles are dropped.
     """
 
     kind_name = "mesh"
@@ -399,21 +432,23 @@ class TriangleMesh(Wall):
         ``scale`` multiplies the coordinates (``0.001`` for a CAD file in millimetres),
         then ``translate`` [m] is added. The name defaults to the file's stem.
         """
-        from stl import mesh as stl_mesh
-
         path = Path(path)
         if not path.is_file():
             raise DataError(f"STL file {str(path)!r} does not exist: check the path.")
         try:
-            m = stl_mesh.Mesh.from_file(str(path))
-        except Exception as exc:  # numpy-stl raises several types on bad input
-            raise DataError(
-                f"cannot read {str(path)!r} as an STL file ({exc}): export it again as ASCII "
-                f"or binary STL."
-            ) from None
-        if len(m.vectors) == 0:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise DataError(f"cannot read STL file {str(path)!r} ({exc.strerror or exc}): "
+                            f"check its permissions.") from None
+        factor = _number(scale)
+        if not (math.isfinite(factor) and factor != 0.0):
+            raise ConfigError(f"STL scale must be a finite non-zero number (0.001 for a file in "
+                              f"millimetres), got {scale!r}.")
+        offset = _vec3(translate, "STL translate")
+        vectors = _read_stl(data, str(path))
+        if len(vectors) == 0:
             raise DataError(f"STL file {str(path)!r} holds no triangles: export the surface again.")
-        tri = np.asarray(m.vectors, dtype=float) * float(scale) + _vec3(translate, "translate")
+        tri = vectors * factor + offset
         kw.setdefault("name", path.stem)
         return cls.from_triangles(tri, **kw)
 
@@ -429,6 +464,46 @@ class TriangleMesh(Wall):
         n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         p[:, 9:12] = n / np.linalg.norm(n, axis=1)[:, None]
         return np.full(m, K.TRIANGLE, np.int32), p
+
+
+_STL_HEADER = 84   # binary STL: 80-byte header + uint32 triangle count
+_STL_RECORD = 50   # binary STL: normal and three corners (12 float32) + uint16
+
+
+def _read_stl(data: bytes, path: str) -> np.ndarray:
+    """Triangles ``(m, 3, 3)`` of an ASCII or binary STL file (read by numpy-stl, every
+    solid of an ASCII file); a :class:`DataError` naming the problem otherwise."""
+    from stl import Mode
+    from stl import mesh as stl_mesh
+
+    if not data.strip():
+        raise DataError(f"cannot read {path!r}: the STL file is empty; export the surface again.")
+    count = int.from_bytes(data[80:84], "little") if len(data) >= _STL_HEADER else -1
+    binary = count >= 0 and len(data) == _STL_HEADER + _STL_RECORD * count
+    if not binary and data.lstrip()[:5].lower() != b"solid":
+        if count < 0:
+            problem = f"{len(data)} bytes, fewer than the 84 of a binary STL header"
+        elif len(data) < _STL_HEADER + _STL_RECORD * count:
+            problem = (f"it is truncated: its header promises {count} triangles, the file "
+                       f"holds {(len(data) - _STL_HEADER) // _STL_RECORD}")
+        else:
+            problem = (f"it has {len(data) - _STL_HEADER - _STL_RECORD * count} bytes after "
+                       f"the {count} triangles its header promises")
+        raise DataError(f"cannot read {path!r} as a binary STL file ({problem}); export it "
+                        f"again as ASCII or binary STL.")
+    try:
+        if binary:
+            meshes = [stl_mesh.Mesh.from_file(path, mode=Mode.BINARY)]
+        else:
+            meshes = list(stl_mesh.Mesh.from_multi_file(path, mode=Mode.ASCII))
+    except Exception as exc:  # numpy-stl raises several types on bad input
+        detail = exc.args[-1] if isinstance(exc, RuntimeError) and exc.args else exc
+        kind = "binary" if binary else "ASCII"
+        raise DataError(f"cannot read {path!r}: it is not a valid {kind} STL file ({detail}); "
+                        f"export it again as ASCII or binary STL.") from None
+    if not meshes:
+        return np.zeros((0, 3, 3))
+    return np.concatenate([np.asarray(m.vectors, dtype=float) for m in meshes])
 
 
 def transform_rows(kinds: np.ndarray, params: np.ndarray, rot: np.ndarray, trans: np.ndarray):

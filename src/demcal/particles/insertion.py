@@ -35,13 +35,88 @@ __all__ = ["BoxRegion", "CylinderRegion", "Insertion", "insert", "Inserter", "ra
 
 _BOX = 0
 _CYLINDER = 1
+#: Solid fraction above which :func:`insert` refuses without trying (random close packing
+#: of spheres is about 64 %, random sequential insertion jams near 30-38 %).
+_MAX_FILL = 0.55
 
 
 def _vec3(value, name):
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise ConfigError(f"{name} must be three finite numbers, got {value!r}.")
     return arr
+
+
+def _number(value, name, what="a finite number", ok=math.isfinite) -> float:
+    """``value`` as a float, or a ConfigError naming ``name`` when it is not a number
+    or fails ``ok``."""
+    try:
+        v = float(value) if not isinstance(value, (bool, str)) else None
+    except (TypeError, ValueError):
+        v = None
+    if v is None or not ok(v):
+        raise ConfigError(f"{name} must be {what}, got {value!r}.")
+    return v
+
+
+def _whole(value, name, minimum) -> int:
+    """``value`` as an int >= ``minimum`` (integer-valued floats accepted)."""
+    v = _number(value, name, f"a whole number >= {minimum}",
+                lambda x: math.isfinite(x) and x == int(x) and x >= minimum)
+    return int(v)
+
+
+def _gap(value) -> float:
+    return _number(value, "insertion gap", "a finite number >= 0 [m] (the extra clearance between "
+                   "particles)", lambda x: math.isfinite(x) and x >= 0.0)
+
+
+def _existing(positions, radii, pos_name="existing_positions", rad_name="existing_radii"):
+    """Validated centres ``(n, 3)`` and bounding radii ``(n,)`` of the particles already
+    there (both None: none)."""
+    if positions is None and radii is None:
+        return np.zeros((0, 3)), np.zeros(0)
+    if radii is None:
+        raise ConfigError(
+            f"{pos_name} was given without {rad_name}: pass the particles' bounding radii [m] "
+            f"too (one number or one per particle), or the insertion cannot avoid them."
+        )
+    if positions is None:
+        raise ConfigError(
+            f"{rad_name} was given without {pos_name}: pass the particles' centres [m] too."
+        )
+    try:
+        ep = np.asarray(positions, dtype=float)
+    except (TypeError, ValueError):
+        ep = None
+    if ep is not None and ep.ndim == 1 and ep.size == 3:
+        ep = ep[None, :]
+    if ep is not None and ep.size == 0:
+        ep = np.zeros((0, 3))
+    if ep is None or ep.ndim != 2 or ep.shape[1] != 3:
+        got = "unreadable" if ep is None else f"shape {ep.shape}"
+        raise ConfigError(f"{pos_name} must be an (n, 3) array of centres [m], got {got}.")
+    if not np.all(np.isfinite(ep)):
+        k = int(np.nonzero(~np.all(np.isfinite(ep), axis=1))[0][0])
+        raise ConfigError(
+            f"{pos_name} must be finite, but particle {k} is at {ep[k].tolist()} (a simulation "
+            f"that blew up?): pass the centres of the particles present."
+        )
+    try:
+        er = np.asarray(radii, dtype=float)
+    except (TypeError, ValueError):
+        er = None
+    if er is None or not (er.ndim == 0 or er.shape == (len(ep),)):
+        got = "unreadable" if er is None else f"shape {er.shape}"
+        raise ConfigError(
+            f"{rad_name} must be one radius or one per particle ({len(ep)}) [m], got {got}."
+        )
+    if not (np.all(np.isfinite(er)) and np.all(er > 0.0)):
+        raise ConfigError(f"{rad_name} must be finite numbers > 0 [m].")
+    return ep, np.broadcast_to(er, (len(ep),))
 
 
 @dataclass(frozen=True)
@@ -238,14 +313,17 @@ def _bounding_radius(template) -> float:
 
 def _fill(region, radii_new, rng, existing_positions, existing_radii, gap, max_attempts):
     """Place particles of bounding radii ``radii_new`` (in order); returns
-    (positions of the placed ones, number placed, status)."""
+    (positions of the placed ones, number placed, status).
+
+    ``existing_positions`` ``(n, 3)`` and ``existing_radii`` ``(n,)`` come checked from
+    :func:`_existing`, ``gap`` from :func:`_gap`."""
     n_new = len(radii_new)
     kind, rp = region._code()
     b = region.bounds()
     rmax = float(radii_new.max()) if n_new else 0.0
-    if existing_positions is not None and len(existing_positions):
-        ep = np.asarray(existing_positions, dtype=float).reshape(-1, 3)
-        er = np.broadcast_to(np.asarray(existing_radii, dtype=float), (len(ep),))
+    if len(existing_positions):
+        ep = existing_positions
+        er = existing_radii
         reach = er + rmax + gap
         near = np.all((ep >= b[:3] - reach[:, None]) & (ep <= b[3:] + reach[:, None]), axis=1)
         ep = ep[near]
@@ -271,6 +349,18 @@ def _fill(region, radii_new, rng, existing_positions, existing_radii, gap, max_a
         uniforms = rng.random((batch, 3))
         done, _, status = _place(kind, rp, pos, rad, done, n_total, uniforms, 0, float(gap), int(max_attempts), cell, origin, head, nxt, size - 1)
     return pos[n_fix:done], done - n_fix, status
+
+
+def _too_dense(count, rmax, solid, region, gap) -> ConfigError:
+    """The pre-check's refusal: more solid than random packing can put in the region."""
+    plus = " (plus half the gap)" if gap > 0 else ""
+    return ConfigError(
+        f"region too small for {count} particles of radius up to {rmax:.3g} m: their bounding "
+        f"spheres{plus} fill {solid:.3g} m3, {solid / region.volume:.0%} of the "
+        f"region's volume {region.volume:.3g} m3, above the {_MAX_FILL:.0%} that random packing "
+        f"can reach (insertion was not tried); enlarge the region, insert fewer particles, or "
+        f"insert them at a rate."
+    )
 
 
 def _too_full(count, rmax, placed, region) -> ConfigError:
@@ -315,20 +405,22 @@ def insert(
     velocity : (3,) array
         Initial velocity of every particle [m/s].
     existing_positions, existing_radii : arrays, optional
-        Particles already in the simulation (centres [m], bounding radii [m]) to avoid.
+        Particles already in the simulation to avoid: centres ``(n, 3)`` [m] and bounding
+        radii [m] (one number for all, or ``(n,)``). Give both or neither.
     gap : float
-        Extra clearance between bounding spheres [m].
+        Extra clearance between bounding spheres [m], finite and >= 0.
     max_attempts : int
-        Tries per particle before the region is declared full.
+        Tries per particle (>= 1) before the region is declared full.
 
     Raises
     ------
     ConfigError
         If a particle cannot fit in the region, or the region fills up before ``count``.
     """
-    count = int(count)
-    if count < 0:
-        raise ConfigError(f"particle count must be >= 0, got {count}.")
+    count = _whole(count, "particle count", 0)
+    gap = _gap(gap)
+    max_attempts = _whole(max_attempts, "max_attempts", 1)
+    existing_positions, existing_radii = _existing(existing_positions, existing_radii)
     rng = as_generator(seed)
     r0 = _bounding_radius(template)
     dist = size_distribution(sizes)
@@ -343,8 +435,8 @@ def insert(
             f"wide: enlarge the region or use smaller particles."
         )
     solid = float(np.sum(4.0 / 3.0 * math.pi * (radii + 0.5 * gap) ** 3))
-    if solid > 0.55 * region.volume:
-        raise _too_full(count, rmax, 0, region)
+    if solid > _MAX_FILL * region.volume:
+        raise _too_dense(count, rmax, solid, region, gap)
     positions, placed, status = _fill(region, radii, rng, existing_positions, existing_radii, gap, max_attempts)
     if placed < count:
         raise _too_full(count, rmax, placed, region)
@@ -367,7 +459,7 @@ class Inserter:
     seed : int or numpy.random.Generator
 
     Call it as ``inserter(t, positions, radii)`` with the current time [s] and the
-    centres and bounding radii of the particles present; it returns an
+    centres and bounding radii of the particles present (both or neither); it returns an
     :class:`Insertion` of the particles due by ``t`` that fit now. Those that do not fit
     (the region is still full) are deferred to later calls, so a rate that outpaces the
     outflow slows down instead of failing. All scale factors are drawn up front, so the
@@ -389,13 +481,14 @@ class Inserter:
         max_attempts: int = 200,
     ):
         self.region = region
-        self.total = int(total)
-        if self.total < 0:
-            raise ConfigError(f"particle count must be >= 0, got {total}.")
-        if rate is not None and not (math.isfinite(rate) and rate > 0):
-            raise ConfigError(f"insertion rate must be > 0 particles/s, got {rate!r}.")
+        self.total = _whole(total, "particle count", 0)
+        if rate is not None:
+            rate = _number(rate, "insertion rate", "a finite number > 0 particles/s (or None to "
+                           "insert all at start)", lambda x: math.isfinite(x) and x > 0)
         self.rate = rate
-        self.start = float(start)
+        self.start = _number(start, "insertion start", "a finite time [s]")
+        gap = _gap(gap)
+        max_attempts = _whole(max_attempts, "max_attempts", 1)
         self.rng = as_generator(seed)
         self.r0 = _bounding_radius(template)
         self.scales = size_distribution(sizes).sample(self.total, self.rng)
@@ -425,6 +518,8 @@ class Inserter:
         return min(self.total, int(math.floor(self.rate * (t - self.start) + 1e-9)) + 1)
 
     def __call__(self, t: float, positions=None, radii=None) -> Insertion:
+        t = _number(t, "insertion time", "a finite time [s]")
+        positions, radii = _existing(positions, radii, "positions", "radii")
         n = self.due(t) - self.inserted
         if n <= 0:
             return Insertion()

@@ -45,10 +45,27 @@ def as_generator(seed) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
+def _as_float(value) -> float:
+    """``value`` as a float; NaN when it is not a number (a string, None, a list)."""
+    if isinstance(value, (str, bytes, bool)):
+        return math.nan
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return math.nan
+
+
 def _finite_positive(value, name: str) -> float:
-    v = float(value)
+    v = _as_float(value)
     if not (math.isfinite(v) and v > 0.0):
         raise ConfigError(f"{name} must be a number > 0, got {value!r}.")
+    return v
+
+
+def _finite(value, name: str) -> float:
+    v = _as_float(value)
+    if not math.isfinite(v):
+        raise ConfigError(f"{name} must be a finite number, got {value!r}.")
     return v
 
 
@@ -138,10 +155,11 @@ class Normal(_Interval):
 
     def __post_init__(self):
         _finite_positive(self.mean, "normal size mean")
-        if not (math.isfinite(self.std) and self.std >= 0.0):
-            raise ConfigError(f"normal size std must be >= 0, got {self.std!r}.")
-        lo = self.mean - 3.0 * self.std if self.low is None else float(self.low)
-        hi = self.mean + 3.0 * self.std if self.high is None else float(self.high)
+        std = _as_float(self.std)
+        if not (math.isfinite(std) and std >= 0.0):
+            raise ConfigError(f"normal size std must be a number >= 0, got {self.std!r}.")
+        lo = self.mean - 3.0 * self.std if self.low is None else _finite(self.low, "normal size low")
+        hi = self.mean + 3.0 * self.std if self.high is None else _finite(self.high, "normal size high")
         lo = max(lo, 0.01 * self.mean)
         if hi < lo:
             raise ConfigError(f"normal size bounds [{lo}, {hi}] are empty: widen them.")
@@ -194,8 +212,14 @@ class SieveTable(SizeDistribution):
     reference_size: float = 1.0
 
     def __post_init__(self):
-        edges = np.asarray(self.apertures, dtype=float)
-        w = np.asarray(self.mass_fractions, dtype=float)
+        try:
+            edges = np.asarray(self.apertures, dtype=float)
+            w = np.asarray(self.mass_fractions, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(
+                "sieve apertures [m] and mass fractions must be lists of numbers, got "
+                f"{self.apertures!r} and {self.mass_fractions!r}."
+            ) from None
         if edges.ndim != 1 or len(edges) < 2 or len(w) != len(edges) - 1:
             raise ConfigError(
                 "a sieve table needs k+1 increasing apertures [m] and k mass fractions, "

@@ -94,6 +94,15 @@ def _check_spheres(spheres) -> np.ndarray:
     return s
 
 
+def _float_array(value):
+    """``value`` as a float64 array (the same object when it already is one), or None
+    when it is not numeric."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
 def _union_moments(spheres: np.ndarray, resolution: int):
     """Volume, first moments (3,) and second moments (3, 3) of a union of spheres."""
     xc, yc, zc, r = spheres.T
@@ -217,6 +226,47 @@ class ParticleTemplate:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     centre_of_mass: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
+    def __post_init__(self):
+        radii = _float_array(self.radii)
+        if radii is None or radii.ndim != 1 or len(radii) == 0:
+            raise ConfigError(
+                "a particle template needs at least one sphere: radii must be a non-empty "
+                "1-D array [m] (build templates with ParticleTemplate.from_spheres or sphere())."
+            )
+        if not (np.all(np.isfinite(radii)) and np.all(radii > 0.0)):
+            raise ConfigError("particle template radii must be finite numbers > 0 [m].")
+        k = len(radii)
+        centers = _float_array(self.centers)
+        if centers is None or centers.shape != (k, 3) or not np.all(np.isfinite(centers)):
+            raise ConfigError(
+                f"particle template centers must be a ({k}, 3) array of finite numbers [m], "
+                f"one row per radius."
+            )
+        try:
+            volume = float(self.volume)
+        except (TypeError, ValueError):
+            volume = math.nan
+        if not (math.isfinite(volume) and volume > 0.0):
+            raise ConfigError(f"particle template volume must be a finite number > 0 [m3], got {self.volume!r}.")
+        inertia = _float_array(self.inertia_per_density)
+        if inertia is None or inertia.shape != (3,) or not (
+            np.all(np.isfinite(inertia)) and np.all(inertia > 0.0)
+        ):
+            raise ConfigError(
+                "particle template inertia_per_density must be three finite principal moments "
+                "> 0 [m5]."
+            )
+        rotation = _float_array(self.rotation)
+        if rotation is None or rotation.shape != (3, 3) or not np.all(np.isfinite(rotation)):
+            raise ConfigError("particle template rotation must be a 3 x 3 array of finite numbers.")
+        com = _float_array(self.centre_of_mass)
+        if com is None or com.shape != (3,) or not np.all(np.isfinite(com)):
+            raise ConfigError("particle template centre_of_mass must be three finite numbers [m].")
+        for name, value in (("radii", radii), ("centers", centers), ("volume", volume),
+                            ("inertia_per_density", inertia), ("rotation", rotation),
+                            ("centre_of_mass", com)):
+            object.__setattr__(self, name, value)
+
     @classmethod
     def from_spheres(cls, spheres, name: str = "template", resolution: int = 256) -> "ParticleTemplate":
         """A template from spheres ``(k, 4)`` = x, y, z, radius [m] in any body frame."""
@@ -313,10 +363,18 @@ def two_sphere_paper(
     offset : float
         Distance between the centres [m]; must be below the sum of the radii.
     """
-    r1, r2 = (float(v) for v in radii)
-    d = float(offset)
+    r = _float_array(radii)
+    if r is None or r.shape != (2,):
+        raise ConfigError(f"two-sphere radii must be two numbers [m], got {radii!r}.")
+    if not (np.all(np.isfinite(r)) and np.all(r > 0.0)):
+        raise ConfigError(f"two-sphere radii must both be > 0 [m], got {tuple(r.tolist())!r}.")
+    r1, r2 = (float(v) for v in r)
+    try:
+        d = float(offset)
+    except (TypeError, ValueError):
+        d = math.nan
     if not (0.0 <= d < r1 + r2):
         raise ConfigError(
-            f"two-sphere offset must be in [0, {r1 + r2}) m so the spheres overlap, got {offset!r}."
+            f"two-sphere offset must be in [0, {r1 + r2:g}) m so the spheres overlap, got {offset!r}."
         )
     return ParticleTemplate.from_spheres([[0.0, 0.0, 0.0, r1], [d, 0.0, 0.0, r2]], name=name, resolution=resolution)
