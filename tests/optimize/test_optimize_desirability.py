@@ -17,7 +17,7 @@ import pytest
 
 from demcal.cli import main
 from demcal.errors import ConfigError, DataError
-from demcal.optimize import Goal, optimize, overall_desirability, parse_goal
+from demcal.optimize import Goal, optimize, overall_desirability, parse_goal, reachable_range
 from demcal.report.paper import REPOSE, SLIDING, fit_study
 
 DATA = importlib.resources.files("demcal") / "data"
@@ -162,6 +162,21 @@ def test_solution_set_ranges_with_several_goals(models):
     ref, _ = brute_force_ranges("repose", 31.07)
     for f in m.factors:
         assert res.factor_ranges_coded[f.name] == pytest.approx(ref[f.name], abs=RANGE_TOL), f.name
+
+
+@pytest.mark.parametrize("study", ["repose", "sliding"])
+def test_targets_on_the_edge_of_what_the_box_reaches(models, study):
+    """Calibration aims at the nearest reachable value when the lab's is out of reach. A
+    target on the reachable extreme used to have no branch of d on one side (its limit
+    was the target itself), and a solution a hair past it scored 0: "no factor setting
+    gives every response a non-zero desirability" for the sliding model's maximum."""
+    m = models[study]
+    lo, hi = reachable_range(m, seed=0)
+    for target in (lo, hi):
+        res = optimize({m.response: m}, [Goal(m.response, "target", target)], n_starts=8)
+        best = res.solutions.iloc[0]
+        assert best[f"predicted:{m.response}"] == pytest.approx(target, abs=1e-3 * (hi - lo))
+        assert best["desirability"] > 0.99
 
 
 def test_unreachable_target_and_impossible_range(models):

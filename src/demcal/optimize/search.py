@@ -243,8 +243,16 @@ def optimize(
                 f"can reach inside the design box ({lo:.4g} to {hi:.4g})."
             )
         obs_lo, obs_hi = float(np.min(m.y)), float(np.max(m.y))
-        if g.kind == "target" and not obs_lo <= g.target <= obs_hi:
-            obs_lo, obs_hi = min(obs_lo, lo), max(obs_hi, hi)
+        if g.kind == "target":
+            # the target strictly inside its limits: d has no lower (upper) branch when
+            # it sits on the low (high) limit, and a point a hair past it scores 0 (a
+            # target on the edge of what the box reaches is what calibration aims at
+            # when the measured one is out of reach)
+            margin = 1e-3 * max(hi - lo, obs_hi - obs_lo, 1e-12)
+            if g.target - margin < obs_lo:
+                obs_lo = min(obs_lo, lo, g.target) - margin
+            if g.target + margin > obs_hi:
+                obs_hi = max(obs_hi, hi, g.target) + margin
         filled.append(g.with_limits(obs_lo, obs_hi))
     problem = _Problem(models, filled)
 
