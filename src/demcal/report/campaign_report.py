@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import base64
 import html
+import json
+import shlex
 from pathlib import Path
 from typing import Sequence
 
@@ -86,6 +88,11 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
         f"Virtual test {c.test}, profile {c.profile}; {len(done)} of {len(table)} design runs done"
         + (f", {int((table['status'] == 'failed').sum())} failed" if (table["status"] == "failed").any() else "")
         + f"; campaign file {c.path.name}; store {c.store_path}.")
+    if len(done) < len(table):
+        report.note(f"{len(table) - len(done)} of {len(table)} design runs are not done, so the model is fitted "
+                    f"to {len(done)}: run `{_command(c, 'run')}`"
+                    + (" (add --retry-failed for the failed ones)" if (table["status"] == "failed").any() else "")
+                    + f", then `{_command(c, 'calibrate')}`.")
 
     _lab_section(report, cal, n)
 
@@ -152,24 +159,35 @@ def _model_sections(report: HtmlReport, cal: Calibration, response: str, n) -> N
     """ANOVA (Tables 5, 9), fit statistics, equations, fit summary, reduced model and
     figures (Figs. 5, 6, 9), built by the statistics helper's report blocks."""
     from demcal.report.paper import add_model_sections
+    from demcal.rsm import Reduction
 
     c = cal.campaign
     full = cal.full[response]
+    model = cal.models[response]
     report.section(f"Response model of {response}", 3)
-    used = ("the reduced model" if cal.removed.get(response) else "the full model") + (
+    used = ("the reduced model" if cal.removed.get(response) else f"the full {c.model_order} model") + (
         f" (backward elimination at alpha = {c.reduce_alpha:g})" if c.reduce_alpha is not None else "")
     report.paragraph(f"{c.model_order.capitalize()} model in coded factors "
                      + ", ".join(f"{f.name} = {f.parameter}" for f in c.factors)
-                     + f"; the calibration below solves {used}.")
-    add_model_sections(report, full, n(response), surfaces=_surface_pairs(full, len(c.factors)),
-                       reduce_alpha=c.reduce_alpha, level=4)
+                     + f"; the calibration below solves {used}, and the diagnostics and figures "
+                       "are of that model.")
+    reduction = (Reduction(model, tuple(cal.removed.get(response, ()))) if c.reduce_alpha is not None
+                 else None)
+    add_model_sections(report, full, n(response), surfaces=_surface_pairs(model, len(c.factors)),
+                       reduce_alpha=c.reduce_alpha, level=4, used_by="calibration", reduction=reduction)
 
 
 def _surface_pairs(model, k: int) -> list[tuple[int, int]]:
-    """The factor pairs with the largest interaction F values (all pairs when few)."""
-    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
+    """The factor pairs with the largest interaction F values (all pairs when few), of
+    the factors ``model`` keeps: a factor the reduced model dropped has a flat surface."""
+    from demcal.report.paper import active_factors
+
+    active = active_factors(model)
+    pairs = [(i, j) for i in range(k) for j in range(i + 1, k) if i in active and j in active]
+    if not pairs:  # one factor left: show it against each other one
+        pairs = [(i, j) for i in range(k) for j in range(i + 1, k) if i in active or j in active]
     if len(pairs) <= SURFACES:
-        return pairs
+        return pairs[:SURFACES]
     names = model.names
 
     def strength(pair):
@@ -193,32 +211,118 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         "verification is the one of the set nearest the design centre.")
     rows = []
     for result in cal.conditions:
+        outside = _outside_box(c, result.condition.reference)
         for f in c.factors:
             lo, hi = result.factor_ranges.get(f.parameter, (np.nan, np.nan))
             rows.append({"condition": result.condition.name, "factor": f.name, "parameter": f.parameter,
                          "calibrated": result.chosen[f.parameter], "set low": lo, "set high": hi,
-                         "paper": result.condition.reference.get(f.parameter, np.nan)})
+                         "paper": result.condition.reference.get(f.parameter, np.nan),
+                         "paper's value": (f"outside the design box: extrapolated ({f.low:g} to {f.high:g})"
+                                           if f.parameter in outside else "")})
     report.table(pd.DataFrame(rows).set_index("condition"), n("calibrated_parameters"),
                  caption="Calibrated parameters per condition with the solution-set ranges, "
                          "and the paper's values (Tables 6 and 10)")
     pred = []
     for result in cal.conditions:
+        outside = _outside_box(c, result.condition.reference)
+        flag = ""
+        if outside and result.reference_predicted:
+            flag = "outside the design box: extrapolated (" + ", ".join(
+                f"{f.name} = {result.condition.reference[f.parameter]:g} outside {f.low:g} to {f.high:g}"
+                for f in c.factors if f.parameter in outside) + ")"
         for v in result.verdicts:
+            goal = _goal_solved(result, v.response)
+            solved = "the target"
+            if goal is not None and not v.target_reachable:
+                solved = f"unreachable; solved for {goal.target:.2f}, the nearest the box reaches"
             pred.append({"condition": result.condition.name, "response": v.response, "target": v.target,
+                         "goal solved": solved,
                          "predicted at calibrated": v.predicted,
                          "predicted at paper's values": result.reference_predicted.get(v.response, np.nan),
+                         "paper's values": flag,
                          "model reaches low": v.reachable[0], "model reaches high": v.reachable[1],
-                         "desirability": result.desirability})
+                         "desirability": _target_desirability(result, v, goal)})
     report.table(pd.DataFrame(pred).set_index("condition"), n("model_predictions"),
                  caption="Model predictions at the calibrated and at the paper's parameters, and the "
-                         "range the model reaches inside the design box")
+                         "range the model reaches inside the design box; desirability is that of the "
+                         "lab target itself at the calibrated setting (Derringer-Suich, the solved "
+                         "goal's limits widened to the target), so an unreachable target scores below "
+                         "the 0.99 of the solution set")
     for result in cal.conditions:
         for note in result.notes:
             if "outside what the model reaches" in note:
                 report.note(f"{result.condition.name}: {note}.")
+        outside = _outside_box(c, result.condition.reference)
+        if outside:
+            values = ", ".join(f"{f.parameter} = {result.condition.reference[f.parameter]:g} (design box "
+                               f"{f.low:g} to {f.high:g})" for f in c.factors if f.parameter in outside)
+            report.note(f"{result.condition.name}: the paper's {values} {'is' if len(outside) == 1 else 'are'} "
+                        "outside the design box; the model's prediction there is extrapolated and not to "
+                        "be trusted.")
+        title = f"Solving for {result.condition.name} (solution 1, the star, is simulated)"
+        substitutes = [f"the lab's {v.response} {v.target:g} is out of reach, so the goal is {goal.target:.2f}"
+                       for v in result.verdicts
+                       if not v.target_reachable and (goal := _goal_solved(result, v.response)) is not None]
+        if substitutes:
+            title += ": " + "; ".join(substitutes)
         add_optimization_sections(report, result.optimization, n(f"solve_{result.condition.name}"),
-                                  f"Solving for {result.condition.name} (solution 1, the star, is simulated)",
-                                  level=4)
+                                  title, level=4)
+
+
+def _outside_box(campaign, reference) -> set[str]:
+    """Parameters whose published value lies outside the factor's design range."""
+    out = set()
+    for f in campaign.factors:
+        if f.parameter in reference:
+            value, lo, hi = float(reference[f.parameter]), min(f.low, f.high), max(f.low, f.high)
+            tol = 1e-9 * max(1.0, hi - lo)
+            if not lo - tol <= value <= hi + tol:
+                out.add(f.parameter)
+    return out
+
+
+def _goal_solved(result, response: str):
+    """The goal the search actually solved for ``response`` (a substitute when the lab
+    target is outside what the box reaches)."""
+    for goal in getattr(result.optimization, "goals", ()):
+        if goal.response == response:
+            return goal
+    return None
+
+
+def _target_desirability(result, verdict, goal) -> float:
+    """Desirability of the lab target at the calibrated (unrounded) solution."""
+    if goal is None or goal.kind != "target" or goal.low is None:
+        return float(result.desirability)
+    key = f"predicted:{verdict.response}"
+    solutions = result.optimization.solutions
+    predicted = float(solutions.iloc[0][key]) if key in solutions else verdict.predicted
+    if goal.target == verdict.target:
+        return float(goal.desirability(predicted))
+    from dataclasses import replace
+
+    real = replace(goal, target=verdict.target, low=min(goal.low, verdict.target),
+                   high=max(goal.high, verdict.target))
+    return float(real.desirability(predicted))
+
+
+def _command(campaign, verb: str, *extra: str) -> str:
+    return " ".join(["demcal", verb, shlex.quote(str(campaign.path)), "--profile",
+                     shlex.quote(str(campaign.profile)), *extra])
+
+
+def _stale(cal: Calibration) -> list[str]:
+    """Conditions whose parameters in calibration.json differ from what the store gives now."""
+    path = cal.campaign.workdir / "calibration.json"
+    try:
+        saved = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return []
+    if saved.get("profile") != cal.campaign.profile:
+        return []
+    before = {c.get("name"): c.get("chosen") for c in saved.get("conditions", []) if isinstance(c, dict)}
+    return [r.condition.name for r in cal.conditions
+            if r.condition.name in before and before[r.condition.name] != r.chosen]
 
 
 def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
@@ -230,7 +334,7 @@ def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
             rows.append({
                 "condition": result.condition.name, "response": v.response,
                 "lab mean": v.target, "lab sd": v.lab_sd, "model": v.predicted,
-                "replicates": len(v.simulated),
+                "replicates": f"{len(v.simulated)}/{len(result.specs)}",
                 "simulated": ", ".join(f"{x:.2f}" for x in v.simulated),
                 "simulated mean": v.simulated_mean if v.simulated else np.nan,
                 "simulated sd": v.simulated_sd if v.simulated else np.nan,
@@ -239,7 +343,8 @@ def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
             })
     report.table(pd.DataFrame(rows).set_index("condition"), n("verification"),
                  caption="Simulated against measured at the calibrated parameters "
-                         "(relative error = |simulated mean - lab mean| / lab mean)")
+                         "(replicates: done / planned; relative error = |simulated mean - lab mean| / lab mean)")
+    _next_step(report, cal)
     for result in cal.conditions:
         for v in result.verdicts:
             if v.simulated and v.within_lab_sd:
@@ -249,6 +354,28 @@ def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
         for note in result.notes:
             if "outside what the model reaches" not in note:
                 report.note(f"{result.condition.name}: {note}")
+
+
+def _next_step(report: HtmlReport, cal: Calibration) -> None:
+    """Say what to run when the verification is stale or unfinished."""
+    c = cal.campaign
+    planned = sum(len(r.specs) for r in cal.conditions)
+    records = [rec for r in cal.conditions for rec in r.verification]
+    done = sum(rec.status == "done" for rec in records)
+    failed = sum(rec.status == "failed" for rec in records)
+    stale = _stale(cal)
+    if stale:
+        report.note(f"calibration.json is out of date: the design results now give other parameters for "
+                    f"{', '.join(stale)} than it holds. Run `{_command(c, 'calibrate')}` to solve and verify "
+                    "them again.")
+    if done >= planned:
+        return
+    missing = planned - done
+    text = (f"Verification is not finished: {done} of {planned} replicate runs are done. Run "
+            f"`{_command(c, 'calibrate')}` to simulate the {missing} missing; runs already done are reused.")
+    if failed:
+        text += (f" {failed} failed; rerun them with `{_command(c, 'calibrate', '--retry-failed')}`.")
+    report.note(text)
 
 
 def _img(path: Path, alt: str) -> str:

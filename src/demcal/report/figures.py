@@ -29,13 +29,19 @@ def _factor_label(f) -> str:
     return getattr(f, "label", f.name)
 
 
-def predicted_vs_actual_figure(model, title: str | None = None) -> Figure:
+def _with_label(text: str, label: str | None) -> str:
+    return f"{text} ({label})" if label else text
+
+
+def predicted_vs_actual_figure(model, title: str | None = None, label: str | None = None) -> Figure:
     """Predicted against actual response with the 1:1 line (paper Fig. 6).
 
     Parameters
     ----------
     model : ResponseSurface
     title : str, optional
+    label : str, optional
+        Which model this is (e.g. "reduced model"), added to the default title.
     """
     fig = Figure(figsize=(4.6, 4.2))
     fig.subplots_adjust(left=0.16, right=0.96, bottom=0.13, top=0.92)
@@ -50,12 +56,12 @@ def predicted_vs_actual_figure(model, title: str | None = None) -> Figure:
     ax.set_aspect("equal")
     ax.set_xlabel(f"Actual {model.response}")
     ax.set_ylabel(f"Predicted {model.response}")
-    ax.set_title(title or f"Predicted vs actual, R² = {model.fit.r2:.3f}", fontsize=10)
+    ax.set_title(title or _with_label(f"Predicted vs actual, R² = {model.fit.r2:.3f}", label), fontsize=10)
     return fig
 
 
 def surface_figure(model, i: int, j: int, hold=None, actual: bool = True, n: int = 41,
-                   title: str | None = None) -> Figure:
+                   title: str | None = None, label: str | None = None) -> Figure:
     """Response surface (3-D) and contour of factors ``i`` and ``j`` (paper Figs. 5, 9).
 
     Parameters
@@ -69,6 +75,8 @@ def surface_figure(model, i: int, j: int, hold=None, actual: bool = True, n: int
         Label the axes in actual units.
     n : int
         Grid points per axis.
+    label : str, optional
+        Which model this is (e.g. "reduced model"), added to the default title.
     """
     k = len(model.factors)
     hold = np.zeros(k) if hold is None else np.asarray(hold, dtype=float)
@@ -102,12 +110,14 @@ def surface_figure(model, i: int, j: int, hold=None, actual: bool = True, n: int
     others = [f"{f.name} = {f.to_actual(hold[m]) if actual else hold[m]:.3g}"
               for m, f in enumerate(model.factors) if m not in (i, j)]
     fig.suptitle(title or (f"{model.response}: {fi.name} × {fj.name}"
-                           + (f" ({', '.join(others)})" if others else "")), fontsize=10)
+                           + (f" ({', '.join(others)})" if others else "") + (f", {label}" if label else "")),
+                 fontsize=10)
     return fig
 
 
-def perturbation_figure(model, reference=None, title: str | None = None) -> Figure:
-    """Response as each factor moves from -1 to +1 through ``reference`` (coded, default 0)."""
+def perturbation_figure(model, reference=None, title: str | None = None, label: str | None = None) -> Figure:
+    """Response as each factor moves from -1 to +1 through ``reference`` (coded, default 0);
+    ``label`` (which model) is added to the default title."""
     k = len(model.factors)
     ref = np.zeros(k) if reference is None else np.asarray(reference, dtype=float)
     fig = Figure(figsize=(5.0, 4.0))
@@ -122,7 +132,7 @@ def perturbation_figure(model, reference=None, title: str | None = None) -> Figu
     ax.set_xlabel("Deviation from reference point (coded units)")
     ax.set_ylabel(model.response)
     ax.legend(fontsize=8)
-    ax.set_title(title or f"Perturbation of {model.response}", fontsize=10)
+    ax.set_title(title or _with_label(f"Perturbation of {model.response}", label), fontsize=10)
     return fig
 
 

@@ -184,10 +184,22 @@ def fit_table(model: ResponseSurface, printed: dict | None = None) -> pd.DataFra
     return df
 
 
+def model_label(model: ResponseSurface, reduced: bool = False) -> str:
+    """How the report names a model: "reduced model" or "full quadratic model"."""
+    if reduced:
+        return "reduced model"
+    return f"full {model.order} model" if model.order in ("linear", "2fi", "quadratic", "cubic") else "full model"
+
+
+def active_factors(model: ResponseSurface) -> list[int]:
+    """Indices of the factors that appear in at least one term of ``model``."""
+    return [j for j in range(len(model.factors)) if any(t[j] for t in model.terms)]
+
+
 def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, label: str = "",
                        printed_anova: dict | None = None, printed_equation: dict | None = None,
                        printed_fit: dict | None = None, surfaces=((0, 1),), reduce_alpha: float = 0.05,
-                       level: int = 3) -> dict:
+                       level: int = 3, used_by: str | None = None, reduction=None) -> dict:
     """ANOVA, fit statistics, coefficients, equations, fit summary, reduced model and
     figures of one response surface, appended to ``report``.
 
@@ -195,6 +207,7 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
     ----------
     report : HtmlReport
     model : ResponseSurface
+        The full model.
     name : str
         Prefix of the table and figure file names.
     label : str
@@ -206,14 +219,30 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
         Factor pairs for surface/contour figures (others held at the centre).
     reduce_alpha : float or None
         Also show the backward-eliminated model at this level.
+    used_by : str, optional
+        What solves the model (e.g. "calibration"): the reduced model when terms were
+        removed, else the full one, is labelled "the one <used_by> uses", and the
+        diagnostics and figures are of that model. Without it they are of the full
+        model, and say so.
+    reduction : demcal.rsm.Reduction, optional
+        The reduction to show (default: backward elimination at ``reduce_alpha``).
 
     Returns
     -------
     dict
-        ``{"summary": FitSummary, "reduction": Reduction}``.
+        ``{"summary": FitSummary, "reduction": Reduction, "used": ResponseSurface}``.
     """
     names = model.names
-    report.section(f"{label}ANOVA for the {model.order} model (partial sums of squares)", level)
+    red = None
+    if reduce_alpha:
+        red = reduction if reduction is not None else backward_elimination(model, reduce_alpha)
+    reduced_used = bool(used_by and red is not None and red.removed)
+    used = red.model if reduced_used else model
+    uses = f" (the one {used_by} uses)" if used_by else ""
+    full_label = model_label(model)
+    used_label = model_label(used, reduced_used)
+
+    report.section(f"{label}ANOVA for the {full_label} (partial sums of squares)", level)
     anova = model.display_anova()
     if printed_anova:
         rev = {display_name(parse_term(k, names), names) if k not in ("Model", "Lack of Fit") else k: v
@@ -221,26 +250,27 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
         anova["paper MS"] = [rev.get(s, ("", "", ""))[0] for s in anova.index]
         anova["paper F"] = [rev.get(s, ("", "", ""))[1] for s in anova.index]
         anova["paper p"] = [rev.get(s, ("", "", ""))[2] for s in anova.index]
-    report.table(anova, f"{name}_anova", caption=f"{label}ANOVA of {model.response} "
+    report.table(anova, f"{name}_anova", caption=f"{label}ANOVA of {model.response}, {full_label} "
                  "(** p ≤ 0.01, * p ≤ 0.05)", digits=5)
     for n in model.notes:
         report.note(n)
-    report.table(fit_table(model, printed_fit), f"{name}_fit", caption="Fit statistics")
+    report.table(fit_table(model, printed_fit), f"{name}_fit", caption=f"Fit statistics, {full_label}")
 
     coef = model.coefficient_table.copy()
     coef.index = [display_name(parse_term(t, names), names) for t in coef.index]
     coef.index.name = "term"
     if printed_equation:
         coef["paper"] = [printed_equation.get(t, np.nan) for t in model.term_names]
-    report.table(coef, f"{name}_coefficients", caption="Coefficients in coded factors "
+    report.table(coef, f"{name}_coefficients", caption=f"Coefficients in coded factors, {full_label} "
                  "(standard error, 95 % confidence interval, VIF)")
-    report.paragraph("Final equation in coded factors:")
+    full_uses = uses if used is model else ""
+    report.paragraph(f"Final equation in coded factors, {full_label}{full_uses}:")
     report.code(model.equation("coded", digits=4))
-    report.paragraph("Final equation in actual factors: "
-                     + "; ".join(f.describe() for f in model.factors))
+    factor_text = "; ".join(f.describe() for f in model.factors)
+    report.paragraph(f"Final equation in actual factors, {full_label}{full_uses}: {factor_text}")
     report.code(model.equation("actual", digits=5))
 
-    out = {}
+    out = {"used": used}
     try:
         s = fit_summary(model.x, model.y, model.factors)
         out["summary"] = s
@@ -255,8 +285,7 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
     except Exception as exc:  # noqa: BLE001 - the summary is supplementary
         report.note(f"fit summary not available: {exc}")
 
-    if reduce_alpha:
-        red = backward_elimination(model, reduce_alpha)
+    if red is not None:
         out["reduction"] = red
         report.section(f"Reduced model (backward elimination, α = {reduce_alpha:g}, hierarchical)",
                        level + 1)
@@ -264,23 +293,34 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
             report.paragraph("Removed in order: " + ", ".join(
                 f"{display_name(parse_term(t, names), names)} (p = {p:.3g})" for t, p in red.removed) + ".")
         else:
-            report.paragraph("No term could be removed.")
+            report.paragraph("No term could be removed" + (f"; {used_by} uses the {full_label}." if used_by
+                                                          else "."))
         report.table(red.model.display_anova(), f"{name}_reduced_anova", caption="ANOVA of the reduced model")
         report.table(fit_table(red.model), f"{name}_reduced_fit", caption="Fit statistics of the reduced model")
-        report.code(red.model.equation("coded", digits=4))
+        if red.removed:
+            red_uses = uses if reduced_used else ""
+            report.paragraph(f"Final equation in coded factors, reduced model{red_uses}:")
+            report.code(red.model.equation("coded", digits=4))
+            report.paragraph(f"Final equation in actual factors, reduced model{red_uses}: {factor_text}")
+            report.code(red.model.equation("actual", digits=5))
 
-    report.section("Diagnostics and figures", level + 1)
-    report.table(model.diagnostics, f"{name}_diagnostics",
-                 caption="Residuals, leverage, studentized residuals and Cook's distance")
-    report.figure(predicted_vs_actual_figure(model), f"{name}_predicted_vs_actual",
-                  caption=f"Predicted vs actual {model.response}")
+    of = f"{used_label}{uses if used_by else ''}"
+    report.section(f"Diagnostics and figures: {of}", level + 1)
+    report.table(used.diagnostics, f"{name}_diagnostics",
+                 caption=f"Residuals, leverage, studentized residuals and Cook's distance of the {of}")
+    report.figure(predicted_vs_actual_figure(used, label=used_label), f"{name}_predicted_vs_actual",
+                  caption=f"Predicted vs actual {model.response}, {of}")
+    active = set(active_factors(used))
     for i, j in surfaces:
-        fi, fj = model.factors[i], model.factors[j]
-        report.figure(surface_figure(model, i, j), f"{name}_surface_{fi.name}{fj.name}",
-                      caption=f"Response surface and contour of {fi.name} and {fj.name}, "
+        fi, fj = used.factors[i], used.factors[j]
+        if i not in active and j not in active:
+            report.note(f"No response surface of {fi.name} and {fj.name}: neither is in the {used_label}.")
+            continue
+        report.figure(surface_figure(used, i, j, label=used_label), f"{name}_surface_{fi.name}{fj.name}",
+                      caption=f"Response surface and contour of {fi.name} and {fj.name}, {of}, "
                               "other factors at their centre levels")
-    report.figure(perturbation_figure(model), f"{name}_perturbation",
-                  caption="Perturbation plot about the design centre")
+    report.figure(perturbation_figure(used, label=used_label), f"{name}_perturbation",
+                  caption=f"Perturbation plot about the design centre, {of}")
     return out
 
 
