@@ -95,3 +95,43 @@ def test_keyboard_interrupt_is_still_its_own_message(capsys, monkeypatch):
     monkeypatch.setattr("demcal.campaign.commands._demo", stop)
     assert main(["demo"]) == 130
     assert "interrupted" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- a closed pipe
+# `demcal ... | head -2`: the reader went away; stop quietly, as other command-line tools do.
+
+def test_closed_stdout_pipe_is_quiet():
+    import os
+
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before demcal writes anything
+    try:
+        out = subprocess.run([sys.executable, "-m", "demcal", "design", "factorial", "-k", "3"],
+                             stdout=write, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write)
+    assert out.stderr == "", out.stderr
+    assert out.returncode in (0, 141)
+
+
+# --------------------------------------------------------------------------- campaign help
+
+def _help(command: str) -> str:
+    import re
+
+    sub = build_parser()._subparsers._group_actions[0]
+    return re.sub(r"\s+", " ", sub.choices[command].format_help())
+
+
+@pytest.mark.parametrize("command", ["run", "calibrate", "report"])
+def test_profile_help_names_the_choices_and_the_default(command):
+    text = _help(command)
+    assert "tiny, quick or paper" in text
+    assert "default: the campaign file's [experiment] profile" in text
+
+
+@pytest.mark.parametrize("command", ["run", "calibrate"])
+def test_scheduler_help_says_what_a_cluster_needs(command):
+    text = _help(command)
+    assert "shared file system" in text and "same path" in text
+    assert "--workers is ignored" in text

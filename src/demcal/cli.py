@@ -61,12 +61,50 @@ def main(argv: list[str] | None = None) -> int:
     except DemcalError as exc:
         print(f"demcal: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError as exc:
+        if _stdout_closed():
+            return _quiet_broken_pipe()
+        print(f"demcal: error: {os_error_sentence(exc)}", file=sys.stderr)
+        return 2
     except OSError as exc:
         print(f"demcal: error: {os_error_sentence(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("demcal: interrupted; finished results are kept.", file=sys.stderr)
         return 130
+
+
+#: Exit status of a command whose reader went away (`demcal ... | head`), as if killed by SIGPIPE.
+BROKEN_PIPE_STATUS = 128 + 13
+
+
+def _stdout_closed() -> bool:
+    """Whether standard output is a pipe nobody reads any more."""
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        return True
+    except (OSError, ValueError):
+        return False
+    try:  # the failed write left nothing buffered: ask the pipe itself
+        import select
+
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(events & select.POLLERR for _, events in poll.poll(0))
+    except (AttributeError, OSError, ValueError):  # pragma: no cover - no poll, no descriptor
+        return False
+
+
+def _quiet_broken_pipe() -> int:
+    """Stop without a word: point stdout at /dev/null so the flush at exit cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):  # pragma: no cover - no file descriptor behind stdout
+        pass
+    return BROKEN_PIPE_STATUS
 
 
 def _check_out_folder(out) -> None:

@@ -113,3 +113,35 @@ def local_and_dask_results(campaign, root: Path):
     finally:
         executor.close()
     return design_results(local), design_results(dask)
+
+
+class InlineExecutor:
+    """An executor double that runs each task at once in this process (no pool to start).
+
+    It maps :func:`demcal.campaign.executors.execute` like the real executors, so the
+    runner's store, claims and artifact folders are exercised; ``ran`` counts tasks.
+    """
+
+    kind = "inline"
+    description = "this process (test double)"
+
+    def __init__(self, workers: int = 2):
+        self.workers = workers
+        self.threads = 1
+        self.ran = 0
+
+    def submit(self, task):
+        import concurrent.futures
+
+        from demcal.campaign.executors import execute
+
+        future = concurrent.futures.Future()
+        future.set_result(execute(dict(task, threads=self.threads)))
+        self.ran += 1
+        return future
+
+    def wait(self, handles, timeout):
+        return [(handle, handle.result()) for handle in handles if handle.done()]
+
+    def close(self, cancel: bool = False) -> None:
+        pass

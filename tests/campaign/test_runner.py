@@ -112,6 +112,8 @@ def test_sigkill_mid_campaign_loses_nothing_and_repeats_nothing(campaign_file, m
         assert store.integrity() == "ok"
         final = store.records()
     assert len(final) == 29 and all(r.status == "done" for r in final)
+    # the temporary folders of the runs in flight at the kill are gone too
+    assert not [p.name for p in (campaign.workdir / "runs").iterdir() if p.name.startswith(".")]
     counts = markers()
     assert set(counts) == {r.seed for r in final}
     assert all(counts[seed] == 1 for seed in done_after_kill)  # finished runs never run again

@@ -59,5 +59,6 @@ def test_nothing_done_anywhere_keeps_the_plain_hint(example, capsys):
     fake_results(example / "repose.toml", "quick", count=0)
     assert main(["report", "repose.toml"]) == 2
     err = _error(capsys)
-    assert "only 0 of 29 design runs are done" in err and "demcal run repose.toml" in err, err
-    assert "--profile" not in err
+    assert "29 of 29 design runs are not done yet" in err, err
+    assert "demcal run repose.toml --profile quick" in err, err
+    assert "done under" not in err  # no other profile to point at

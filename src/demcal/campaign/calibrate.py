@@ -110,6 +110,9 @@ class Calibration:
     removed: dict[str, tuple]  #: response -> terms removed by the reduction, with p
     conditions: list[ConditionResult]
     notes: list[str] = field(default_factory=list)
+    #: what must be read before the results (failed design runs left out of the fit);
+    #: the same facts are in ``notes``, which the report shows
+    warnings: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"campaign": self.campaign.name, "profile": self.campaign.profile,
@@ -238,8 +241,9 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
                     continue
                 if (count := int((other["status"] == "done").sum())):
                     elsewhere[profile] = count
-    if done <= len(campaign.factors) + 1:
-        failed = int((table["status"] == "failed").sum())
+    failed = int((table["status"] == "failed").sum())
+    unfinished = len(table) - done - failed  # pending, running in another runner, or never planned
+    if done <= len(campaign.factors) + 1 or (simulate and unfinished):
         if elsewhere:
             best = max(elsewhere, key=elsewhere.get)
             there = ", ".join(f"{n} are done under '{p}'" for p, n in sorted(elsewhere.items(), key=lambda i: -i[1]))
@@ -247,10 +251,23 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
                     f"only {done} of {len(table)} design runs are done under profile '{campaign.profile}'")
             raise DataError(f"{here}; {there}: give --profile {best}, or run "
                             f"`demcal run {campaign.path} --profile {campaign.profile}` to finish these.")
-        hint = ("; rerun the failed ones with `demcal run --retry-failed`" if failed
-                else f"; run `demcal run {campaign.path}` to finish them")
-        raise DataError(f"only {done} of {len(table)} design runs are done{hint}.")
-    full, models, removed, notes = fit_models(campaign, table)
+        if unfinished:
+            raise _unfinished(campaign, table, unfinished, failed)
+        raise DataError(f"only {done} of {len(table)} design runs are done; rerun the failed ones with "
+                        f"`demcal run {campaign.path} --profile {campaign.profile} --retry-failed`.")
+    try:
+        full, models, removed, notes = fit_models(campaign, table)
+    except DataError:
+        if unfinished:  # too few runs for the model: the advice is to finish the design
+            raise _unfinished(campaign, table, unfinished, failed) from None
+        raise
+    warnings = []
+    if failed and not unfinished:
+        # Said once, first, in place of the fit's per-response note of the same runs.
+        warnings.append(f"{failed} of {len(table)} design runs failed and are left out of the fit, so the "
+                        f"model rests on {done}; rerun them with `demcal run {campaign.path} --profile "
+                        f"{campaign.profile} --retry-failed`, then calibrate again.")
+        notes = warnings + [n for n in notes if "are left out of the fit" not in n]
 
     names = campaign.factor_names
     by_name = {f.name: f for f in campaign.factors}
@@ -299,10 +316,21 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
                 verdict.simulated = [float(r.responses[verdict.response]) for r in result.verification
                                      if r.status == "done" and verdict.response in r.responses]
                 _judge(result, verdict)
-    calibration = Calibration(campaign, table, full, models, removed, results, notes)
+    calibration = Calibration(campaign, table, full, models, removed, results, notes, warnings)
     if simulate:
         write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
     return calibration
+
+
+def _unfinished(campaign: Campaign, table: pd.DataFrame, unfinished: int, failed: int) -> DataError:
+    """Design runs still pending: a fit of part of a design (and verification runs spent
+    on it) is no calibration -- the design's balance is gone until every point is in."""
+    running = int((table["status"] == "running").sum())
+    busy = f" ({running} running in another runner)" if running else ""
+    retry = f" (add --retry-failed for the {failed} failed)" if failed else ""
+    return DataError(f"{unfinished} of {len(table)} design runs are not done yet{busy}; finish them "
+                     f"with `demcal run {campaign.path} --profile {campaign.profile}`{retry}, "
+                     f"then calibrate again.")
 
 
 def _judge(result: ConditionResult, verdict: ResponseVerdict) -> None:
@@ -322,8 +350,8 @@ def _judge(result: ConditionResult, verdict: ResponseVerdict) -> None:
 
 
 def describe(calibration: Calibration) -> str:
-    """A few lines for the terminal."""
-    lines = []
+    """A few lines for the terminal; warnings about the design come first."""
+    lines = [f"warning: {warning}" for warning in calibration.warnings]
     for response, model in calibration.models.items():
         fit = model.fit
         lines.append(f"{response}: {calibration.campaign.model_order} model"
@@ -342,5 +370,6 @@ def describe(calibration: Calibration) -> str:
         for note in result.notes:
             lines.append(f"  note: {note}")
     for note in calibration.notes:
-        lines.append(f"note: {note}")
+        if note not in calibration.warnings:
+            lines.append(f"note: {note}")
     return "\n".join(lines)

@@ -31,8 +31,9 @@ def register(subparsers) -> None:
         help="write the campaign's HTML report and its tables (CSV, JSON)",
         description="Write one self-contained HTML report with every table and figure, plus CSV "
                     "and JSON of each table, into the campaign's work folder.")
-    _common(report, profile_help="bench profile whose runs are reported, instead of the file's "
-                                 "(e.g. paper); nothing is run")
+    _common(report, profile_help="report the runs of this bench profile: tiny, quick or paper "
+                                 "(default: the campaign file's [experiment] profile, quick if it names "
+                                 "none); nothing is run")
     report.add_argument("--out", type=Path, help="report folder (default: WORKDIR/report)")
 
     demo = add_command(
@@ -46,7 +47,8 @@ def register(subparsers) -> None:
 
 
 def _common(parser: argparse.ArgumentParser,
-            profile_help: str = "bench profile to run instead of the file's (e.g. paper)") -> None:
+            profile_help: str = "bench profile: tiny, quick or paper (default: the campaign file's "
+                                "[experiment] profile, quick if it names none)") -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (TOML)")
     parser.add_argument("--profile", help=profile_help)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -57,12 +59,20 @@ def _execution(parser: argparse.ArgumentParser, scheduler: bool = True) -> None:
                         help="worker processes (default: the file's [executor] workers, else one per core)")
     if scheduler:
         parser.add_argument("--scheduler", metavar="ADDRESS",
-                            help="run on a Dask cluster, e.g. tcp://host:8786")
+                            help="run on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
+                                 "(default: the file's [executor] scheduler); its workers need a shared "
+                                 "file system that holds the campaign folder at the same path, and "
+                                 "--workers is ignored (the cluster's worker threads count)")
 
 
 def _load(args):
     from demcal.campaign.config import load_campaign
 
+    scheduler = getattr(args, "scheduler", None)
+    if scheduler is not None:  # before anything is read or set up
+        from demcal.campaign.executors import check_scheduler_address
+
+        check_scheduler_address(scheduler)
     campaign = load_campaign(args.campaign)
     if args.profile:
         campaign = campaign.with_profile(args.profile)

@@ -583,7 +583,13 @@ class _Loader:
         kind = self.choice(data, "kind", where, _EXECUTOR_KINDS, "local")
         scheduler = data.get("scheduler")
         if scheduler is not None:
+            from demcal.campaign.executors import scheduler_address_problem
+
             scheduler = self.string(data, "scheduler", where)
+            problem = scheduler_address_problem(scheduler)
+            if problem:
+                raise self.error(where + ("scheduler",),
+                                 f"scheduler '{scheduler}' is not a Dask scheduler address: {problem}")
         timeout = self.number(data, "heartbeat_timeout_s", where, 120.0)
         if timeout <= 0:
             raise self.error(where + ("heartbeat_timeout_s",), "'heartbeat_timeout_s' must be positive")

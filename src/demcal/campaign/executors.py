@@ -219,6 +219,159 @@ def _died() -> dict[str, Any]:
                                   "rerun with --retry-failed"}
 
 
+#: Seconds a connection to a Dask scheduler may take, handshake included.
+CONNECT_TIMEOUT_S = 20.0
+
+#: Address schemes of ``distributed.comm`` (``tcp://host:8786`` is the usual one).
+DASK_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+
+
+def scheduler_address_problem(address: str) -> str | None:
+    """What is wrong with a Dask scheduler address, in words; None if it is well formed.
+
+    Checked before anything runs: a known scheme (none means ``tcp``), a host and a
+    port from 1 to 65535 (``inproc://`` addresses have no port).
+    """
+    example = "give one like tcp://HOST:8786"
+    text = str(address).strip()
+    if not text:
+        return f"it is empty; {example}"
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    scheme = scheme.lower()
+    if scheme not in DASK_SCHEMES:
+        hint = " (http:// is the dashboard's address, not the scheduler's)" if scheme in ("http", "https") else ""
+        return (f"'{scheme}' is not a Dask address scheme{hint}; use "
+                f"{', '.join(DASK_SCHEMES[:-1])} or {DASK_SCHEMES[-1]}, like tcp://HOST:8786")
+    if scheme == "inproc":
+        return None if rest.strip("/") else f"it names no process; {example}"
+    if rest.startswith("["):  # an IPv6 literal: [::1]:8786
+        host, bracket, port = rest[1:].partition("]")
+        if not bracket:
+            return f"the IPv6 host has no closing ']'; {example}"
+        if port and not port.startswith(":"):
+            return f"'{port}' after the host is not ':PORT'; {example}"
+        port = port[1:] if port else None
+    else:
+        host, colon, port = rest.rpartition(":")
+        if not colon:
+            host, port = rest, None
+    if not host:
+        return f"it has no host; {example}"
+    if port is None or port == "":
+        return f"it has no port; {example}"
+    if not (port.isascii() and port.isdigit()):
+        return f"the port '{port}' is not a whole number; {example}"
+    if not 1 <= int(port) <= 65535:
+        return f"the port {int(port)} is not in 1 to 65535; {example}"
+    return None
+
+
+def check_scheduler_address(address: str, where: str = "--scheduler") -> None:
+    """Raise :class:`ConfigError` for a malformed scheduler address."""
+    problem = scheduler_address_problem(address)
+    if problem:
+        raise ConfigError(f"{where} {address} is not a Dask scheduler address: {problem}.")
+
+
+def _unreachable(address: str, reason: str) -> ConfigError:
+    return ConfigError(f"cannot reach the Dask scheduler at {address} ({reason}); "
+                       f"start it with `dask scheduler` or check the address.")
+
+
+def _reason(exc: BaseException) -> str:
+    """The root cause of a failed connection, in a few words."""
+    seen = exc
+    while seen is not None:
+        if isinstance(seen, ConnectionRefusedError):
+            return "connection refused: nothing listens on that port"
+        if isinstance(seen, socket.gaierror):
+            return "unknown host"
+        seen = seen.__cause__ or seen.__context__
+    text = str(exc).strip().rstrip(".")
+    return text or type(exc).__name__
+
+
+def probe_scheduler(address: str, timeout: float | None = None) -> None:
+    """Make sure a Dask scheduler answers at ``address`` within ``timeout`` seconds.
+
+    ``distributed.Client`` bounds the TCP connection but not the handshake after it,
+    so a server that accepts and says nothing (an HTTP server, a firewall's proxy)
+    hung it forever, and one that answers like HTTP had its reply's first bytes read
+    as a frame length ("Unable to allocate 3.07 EiB"). Here the whole exchange --
+    connection, handshake, the scheduler's identity -- runs on a private event loop
+    under a hard deadline, and every failure becomes one :class:`ConfigError` sentence.
+    """
+    import asyncio
+    import threading
+
+    timeout = CONNECT_TIMEOUT_S if timeout is None else float(timeout)
+    check_scheduler_address(address)
+    scheme, sep, rest = address.partition("://")
+    if not sep:
+        scheme, rest = "tcp", address
+    if scheme.lower() == "tls":
+        from distributed.security import Security
+
+        if Security().get_connection_args("client").get("ssl_context") is None:
+            raise ConfigError(f"{address} is a TLS address but Dask has no TLS certificates configured "
+                              f"(distributed.comm.tls in the Dask configuration); configure them or use tcp://.")
+    if scheme.lower() in ("tcp", "tls", "ws", "wss"):
+        host, _, port = rest.rpartition(":")
+        try:  # a refused port or an unknown host is told at once, not after the timeout
+            socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+        except socket.timeout:
+            raise ConfigError(f"no Dask scheduler answered at {address} within {timeout:g} s; "
+                              f"check that `dask scheduler` runs there and that the address is right.") from None
+        except OSError as exc:
+            raise _unreachable(address, _reason(exc)) from None
+
+    async def identify() -> dict:
+        from distributed.comm import connect
+        from distributed.security import Security
+
+        comm = await connect(address, timeout=timeout, **Security().get_connection_args("client"))
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    outcome: dict[str, Any] = {}
+
+    def attempt() -> None:
+        try:
+            outcome["identity"] = asyncio.run(asyncio.wait_for(identify(), timeout))
+        except BaseException as exc:  # noqa: BLE001 - reported below, whatever it is
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=attempt, name="demcal-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout + 5.0)
+    error = outcome.get("error")
+    if thread.is_alive() or isinstance(error, (asyncio.TimeoutError, TimeoutError)) or (
+            isinstance(error, OSError) and "Timed out" in str(error)):
+        raise ConfigError(f"no Dask scheduler answered at {address} within {timeout:g} s; "
+                          f"check that `dask scheduler` runs there and that the address is right.")
+    from distributed.comm.core import CommClosedError
+
+    if isinstance(error, CommClosedError):
+        raise _unreachable(address, "the server there closed the connection without a Dask handshake") from None
+    if isinstance(error, (MemoryError, ValueError, TypeError, KeyError)) and not isinstance(error, OSError):
+        if scheme.lower() in ("tcp", "tls", "ws", "wss"):  # the socket connected above
+            # Garbage read as a message: a frame length of exabytes, a broken msgpack.
+            raise _unreachable(address, "the server there does not speak Dask's protocol") from None
+        raise _unreachable(address, f"{type(error).__name__}: {_reason(error)}") from None
+    if error is not None:
+        raise _unreachable(address, _reason(error)) from None
+    identity = outcome.get("identity")
+    kind = identity.get("type") if isinstance(identity, dict) else None
+    if kind != "Scheduler":
+        what = f"a Dask {kind}, not the scheduler" if kind else "not a Dask scheduler"
+        raise _unreachable(address, f"the server there is {what}")
+
+
 class DaskExecutor:
     """A ``dask.distributed`` cluster: a scheduler address, or a ``LocalCluster``.
 
@@ -226,6 +379,7 @@ class DaskExecutor:
     ----------
     address : ``tcp://host:port`` of a running scheduler; None starts a ``LocalCluster``
         of ``workers`` single-threaded worker processes (used by tests and laptops).
+        With an address, ``workers`` is ignored: the cluster's worker threads count.
     """
 
     kind = "dask"
@@ -238,18 +392,20 @@ class DaskExecutor:
         self.plugins = tuple(plugins)
         self._cluster = None
         if address:
+            probe_scheduler(address)
             try:
-                self._client = Client(address, timeout="20s")
-            except (OSError, TimeoutError) as exc:
-                raise ConfigError(f"cannot reach the Dask scheduler at {address} ({exc}); "
-                                  f"start it with `dask scheduler` or check the address.") from None
-            info = self._client.scheduler_info()
+                self._client = Client(address, timeout=f"{CONNECT_TIMEOUT_S:g}s")
+                info = self._client.scheduler_info()
+            except Exception as exc:  # noqa: BLE001 - the scheduler went away since the probe
+                raise _unreachable(address, _reason(exc)) from None
             self.workers = max(1, sum(w.get("nthreads", 1) for w in info.get("workers", {}).values()))
             self.address = address
         else:
             self.workers = workers or cpu_count()
+            # No dashboard; its HTTP server on a free port (the default 8787 warned
+            # "Port 8787 is already in use" whenever another Dask ran on this machine).
             self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                         dashboard_address=None)
+                                         dashboard_address=":0", scheduler_kwargs={"dashboard": False})
             self._client = Client(self._cluster)
             self.address = self._cluster.scheduler_address
         self.threads = 1

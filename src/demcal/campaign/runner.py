@@ -10,6 +10,8 @@ progress bar shows done / failed / remaining and the ETA. Verification runs of
 
 from __future__ import annotations
 
+import re
+import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -213,6 +215,7 @@ def run_specs(
         if retry_failed:
             store.retry_failed(keys)
         store.reclaim_stale(campaign.executor.heartbeat_timeout_s)
+        remove_leftovers(store)
         before = store.counts(keys)
         summary.skipped = before["done"]
         if before["pending"]:
@@ -224,6 +227,7 @@ def run_specs(
             summary.executor = executor.description
             _drain(store, unique, executor, summary, campaign, progress, desc or campaign.name,
                    before, engine_version)
+            remove_leftovers(store)  # of workers that died in this call
         after = store.counts(keys)
         summary.done, summary.failed, summary.elsewhere = after["done"], after["failed"], after["running"]
         summary.failures = [(r.label, r.error or "") for r in store.records(keys) if r.status == "failed"]
@@ -232,6 +236,42 @@ def run_specs(
             executor.close()
         store.close()
     return summary
+
+
+#: ``runs/.<run folder>.tmp-<hex>`` (artifacts being written) and ``.old-<hex>`` (an
+#: older folder being replaced): what :func:`~demcal.campaign.store.temp_dir` and
+#: :func:`~demcal.campaign.store.publish_dir` leave behind when a process dies.
+_LEFTOVER = re.compile(r"^\.(?P<name>.+-(?P<key>[0-9a-f]{10}))\.(?P<what>tmp|old)-[0-9a-f]{8}$")
+
+
+def remove_leftovers(store: Store) -> int:
+    """Remove the temporary folders of runs that no live runner is working on.
+
+    A runner killed with ``kill -9``, a worker killed mid-run or a Ctrl-C leave
+    ``runs/.<name>.tmp-*`` folders behind. Call after :meth:`Store.reclaim_stale`:
+    every run still ``running`` then belongs to a runner that is alive (its pid on
+    this host, or a fresh heartbeat), and its folders are kept -- that runner's worker
+    may be writing them. The folder list is read *before* the claims, so a folder
+    created by a claim made in between is never in it. An ``.old-*`` folder goes
+    only once its run's folder is in place. Returns how many folders were removed.
+    """
+    try:
+        entries = [(path, match) for path in store.runs_dir.iterdir()
+                   if (match := _LEFTOVER.match(path.name)) and path.is_dir()]
+    except FileNotFoundError:
+        return 0
+    if not entries:
+        return 0
+    busy = {row[0][:10] for row in store.db.execute("SELECT key FROM runs WHERE status = 'running'")}
+    removed = 0
+    for path, match in entries:
+        if match["key"] in busy:
+            continue
+        if match["what"] == "old" and not (store.runs_dir / match["name"]).is_dir():
+            continue  # the only copy of that run's artifacts: publish_dir stopped half way
+        shutil.rmtree(path, ignore_errors=True)
+        removed += not path.exists()
+    return removed
 
 
 def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummary, campaign: Campaign,
