@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING
 
+from demcal._checks import and_list
 from demcal._cliutil import add_command, read_runs_from_args
 from demcal.errors import ConfigError
 
@@ -73,11 +74,6 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", help="CSV file to write (default: standard output)")
 
 
-def _join(words) -> str:
-    words = list(words)
-    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
-
-
 def check_options(args) -> None:
     """Refuse options that the chosen design kind does not use, and bad counts."""
     import math
@@ -92,7 +88,7 @@ def check_options(args) -> None:
                 f"{args.kind} design; remove it or choose steepest-ascent."
             )
         raise ConfigError(
-            f"{option} does not apply to a {args.kind} design; only {_join(kinds)} designs "
+            f"{option} does not apply to a {args.kind} design; only {and_list(kinds)} designs "
             f"take it, so remove it or choose one of those."
         )
     if args.n_factors is not None and args.n_factors < 1:

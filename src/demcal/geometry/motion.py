@@ -23,6 +23,7 @@ from typing import Callable
 
 import numpy as np
 
+from demcal._checks import checked_float
 from demcal.errors import ConfigError
 
 _I3 = np.eye(3)
@@ -36,20 +37,6 @@ def _vec3(value, name: str) -> np.ndarray:
     if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise ConfigError(f"{name} must be three finite numbers, got {value!r}.")
     return arr
-
-
-def _real(value, name: str, what: str = "a finite number", ok=math.isfinite) -> float:
-    """``value`` as a float, or a ConfigError naming ``name`` when it is not a number
-    (strings, None, arrays) or fails ``ok``."""
-    v = math.nan
-    if not isinstance(value, (str, bytes, bool)):
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            pass
-    if not ok(v):
-        raise ConfigError(f"{name} must be {what}, got {value!r}.")
-    return v
 
 
 #: Tolerance of the rotation check on a :class:`FunctionMotion`'s ``R``: ``R R^T = I``
@@ -180,7 +167,7 @@ class Rotation(Motion):
     def __post_init__(self):
         object.__setattr__(self, "point", tuple(_vec3(self.point, "rotation point")))
         object.__setattr__(self, "axis", tuple(_unit(self.axis, "rotation axis")))
-        object.__setattr__(self, "angular_speed", _real(
+        object.__setattr__(self, "angular_speed", checked_float(
             self.angular_speed, "Rotation angular_speed", "a finite number [rad/s]"))
         if not self.stop > self.start:
             raise ConfigError(
@@ -221,7 +208,7 @@ class FunctionMotion(Motion):
 
     def __post_init__(self):
         _check_time_function(self.function, "FunctionMotion")
-        object.__setattr__(self, "dt", _real(
+        object.__setattr__(self, "dt", checked_float(
             self.dt, "FunctionMotion dt", "a finite time step > 0 [s] (e.g. 1e-6)",
             lambda x: math.isfinite(x) and x > 0.0))
 

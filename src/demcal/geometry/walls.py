@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from demcal._checks import as_float
 from demcal.errors import ConfigError, DataError
 from demcal.geometry import kernels as K
 from demcal.geometry.motion import Motion, _unit, _vec3, as_motion
@@ -35,18 +36,8 @@ __all__ = [
 ]
 
 
-def _number(value) -> float:
-    """``value`` as a float, NaN if it is not a number (strings and bools included)."""
-    if isinstance(value, (str, bytes, bool)):
-        return float("nan")
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
 def _positive(value, name: str, allow_zero: bool = False) -> float:
-    v = _number(value)
+    v = as_float(value)
     if not np.isfinite(v) or v < 0.0 or (v == 0.0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
         raise ConfigError(f"{name} must be a finite number {bound} [m], got {value!r}.")
@@ -440,7 +431,7 @@ class TriangleMesh(Wall):
         except OSError as exc:
             raise DataError(f"cannot read STL file {str(path)!r} ({exc.strerror or exc}): "
                             f"check its permissions.") from None
-        factor = _number(scale)
+        factor = as_float(scale)
         if not (math.isfinite(factor) and factor != 0.0):
             raise ConfigError(f"STL scale must be a finite non-zero number (0.001 for a file in "
                               f"millimetres), got {scale!r}.")

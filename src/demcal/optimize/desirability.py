@@ -22,6 +22,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from demcal._checks import and_list
 from demcal.errors import ConfigError
 
 KINDS = ("target", "maximize", "minimize", "in_range")
@@ -200,11 +201,6 @@ _ALL_GOAL_KEYS = _GOAL_KEYS["target"]
 _COUNT_WORDS = ("no numbers", "one number", "two numbers", "three numbers")
 
 
-def _and(words) -> str:
-    words = list(words)
-    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
-
-
 def _count(n: int) -> str:
     return _COUNT_WORDS[n] if n < len(_COUNT_WORDS) else f"{n} numbers"
 
@@ -248,7 +244,7 @@ def parse_goal(spec: str) -> Goal:
                               else "target, max and min goals")
                     raise ConfigError(
                         f"goal {spec!r} sets {key!r}, which a {typed} goal does not use; only "
-                        f"{takers} take it, and a {typed} goal takes {_and(_GOAL_KEYS[kind])}."
+                        f"{takers} take it, and a {typed} goal takes {and_list(_GOAL_KEYS[kind])}."
                     )
                 import difflib
 
@@ -256,7 +252,7 @@ def parse_goal(spec: str) -> Goal:
                 hint = f" (did you mean {near[0]!r}?)" if near else ""
                 raise ConfigError(
                     f"goal {spec!r} has an unknown key {key!r}{hint}; the keys of a {typed} goal "
-                    f"are {_and(_GOAL_KEYS[kind])}."
+                    f"are {and_list(_GOAL_KEYS[kind])}."
                 )
             if key in opts:
                 raise ConfigError(f"goal {spec!r} gives {key!r} twice; give it once.")

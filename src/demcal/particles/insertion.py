@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from demcal._checks import checked_float, checked_whole
 from demcal.errors import ConfigError
 from demcal.particles.sizes import SizeDistribution, as_generator, size_distribution
 
@@ -50,28 +51,9 @@ def _vec3(value, name):
     return arr
 
 
-def _number(value, name, what="a finite number", ok=math.isfinite) -> float:
-    """``value`` as a float, or a ConfigError naming ``name`` when it is not a number
-    or fails ``ok``."""
-    try:
-        v = float(value) if not isinstance(value, (bool, str)) else None
-    except (TypeError, ValueError):
-        v = None
-    if v is None or not ok(v):
-        raise ConfigError(f"{name} must be {what}, got {value!r}.")
-    return v
-
-
-def _whole(value, name, minimum) -> int:
-    """``value`` as an int >= ``minimum`` (integer-valued floats accepted)."""
-    v = _number(value, name, f"a whole number >= {minimum}",
-                lambda x: math.isfinite(x) and x == int(x) and x >= minimum)
-    return int(v)
-
-
 def _gap(value) -> float:
-    return _number(value, "insertion gap", "a finite number >= 0 [m] (the extra clearance between "
-                   "particles)", lambda x: math.isfinite(x) and x >= 0.0)
+    return checked_float(value, "insertion gap", "a finite number >= 0 [m] (the extra clearance "
+                         "between particles)", lambda x: math.isfinite(x) and x >= 0.0)
 
 
 def _existing(positions, radii, pos_name="existing_positions", rad_name="existing_radii"):
@@ -417,9 +399,9 @@ def insert(
     ConfigError
         If a particle cannot fit in the region, or the region fills up before ``count``.
     """
-    count = _whole(count, "particle count", 0)
+    count = checked_whole(count, "particle count", 0)
     gap = _gap(gap)
-    max_attempts = _whole(max_attempts, "max_attempts", 1)
+    max_attempts = checked_whole(max_attempts, "max_attempts", 1)
     existing_positions, existing_radii = _existing(existing_positions, existing_radii)
     rng = as_generator(seed)
     r0 = _bounding_radius(template)
@@ -481,14 +463,14 @@ class Inserter:
         max_attempts: int = 200,
     ):
         self.region = region
-        self.total = _whole(total, "particle count", 0)
+        self.total = checked_whole(total, "particle count", 0)
         if rate is not None:
-            rate = _number(rate, "insertion rate", "a finite number > 0 particles/s (or None to "
+            rate = checked_float(rate, "insertion rate", "a finite number > 0 particles/s (or None to "
                            "insert all at start)", lambda x: math.isfinite(x) and x > 0)
         self.rate = rate
-        self.start = _number(start, "insertion start", "a finite time [s]")
+        self.start = checked_float(start, "insertion start", "a finite time [s]")
         gap = _gap(gap)
-        max_attempts = _whole(max_attempts, "max_attempts", 1)
+        max_attempts = checked_whole(max_attempts, "max_attempts", 1)
         self.rng = as_generator(seed)
         self.r0 = _bounding_radius(template)
         self.scales = size_distribution(sizes).sample(self.total, self.rng)
@@ -518,7 +500,7 @@ class Inserter:
         return min(self.total, int(math.floor(self.rate * (t - self.start) + 1e-9)) + 1)
 
     def __call__(self, t: float, positions=None, radii=None) -> Insertion:
-        t = _number(t, "insertion time", "a finite time [s]")
+        t = checked_float(t, "insertion time", "a finite time [s]")
         positions, radii = _existing(positions, radii, "positions", "radii")
         n = self.due(t) - self.inserted
         if n <= 0:

@@ -24,6 +24,7 @@ from typing import Mapping
 
 import numpy as np
 
+from demcal._checks import as_float
 from demcal.errors import ConfigError
 
 __all__ = [
@@ -45,25 +46,15 @@ def as_generator(seed) -> np.random.Generator:
     return np.random.default_rng(seed)
 
 
-def _as_float(value) -> float:
-    """``value`` as a float; NaN when it is not a number (a string, None, a list)."""
-    if isinstance(value, (str, bytes, bool)):
-        return math.nan
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return math.nan
-
-
 def _finite_positive(value, name: str) -> float:
-    v = _as_float(value)
+    v = as_float(value)
     if not (math.isfinite(v) and v > 0.0):
         raise ConfigError(f"{name} must be a number > 0, got {value!r}.")
     return v
 
 
 def _finite(value, name: str) -> float:
-    v = _as_float(value)
+    v = as_float(value)
     if not math.isfinite(v):
         raise ConfigError(f"{name} must be a finite number, got {value!r}.")
     return v
@@ -155,7 +146,7 @@ class Normal(_Interval):
 
     def __post_init__(self):
         _finite_positive(self.mean, "normal size mean")
-        std = _as_float(self.std)
+        std = as_float(self.std)
         if not (math.isfinite(std) and std >= 0.0):
             raise ConfigError(f"normal size std must be a number >= 0, got {self.std!r}.")
         lo = self.mean - 3.0 * self.std if self.low is None else _finite(self.low, "normal size low")
