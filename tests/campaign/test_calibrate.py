@@ -21,9 +21,16 @@ from conftest import CAMPAIGN
 
 @pytest.fixture(scope="module")
 def calibrated(tmp_path_factory):
-    """The test campaign with a third condition whose target no setting in the box reaches."""
+    """The test campaign with a third condition whose target no setting in the box reaches;
+    hard limits at the box's edges keep the loop from moving the box (tests/campaign/test_loop.py
+    moves it)."""
     folder = tmp_path_factory.mktemp("calibrate")
-    text = CAMPAIGN.format(sleep=0.01) + (
+    text = CAMPAIGN.format(sleep=0.01)
+    for low, high in (("0.5", "0.7"), ("0.3", "0.5"), ("0.1", "0.3"), ("0.0", "0.2")):
+        text = text.replace(f"low = {low}\nhigh = {high}\n",
+                            f"low = {low}\nhigh = {high}\nhard_low = {low}\nhard_high = {high}\n", 1)
+    assert text.count("hard_low") == 4
+    text = text + (
         '\n[[conditions]]\nname = "too low"\ntargets = { repose_angle_deg = { mean = 20.0, sd = 1.0 } }\n'
         '[conditions.reference]\n"particle.restitution" = 0.58\n"particle.static_friction" = 0.30\n'
         '"particle.rolling_friction" = 0.10\n"particle.damping_factor" = 0.12\n')
@@ -51,7 +58,7 @@ def test_targets_solved_and_verified_inside_the_lab_spread(calibrated):
     for result in cal.conditions[:2]:
         (verdict,) = result.verdicts
         assert verdict.predicted == pytest.approx(verdict.target, abs=0.1)  # parameters rounded to 3 digits
-        assert len(verdict.simulated) == 2 and verdict.within_lab_sd is True
+        assert len(verdict.simulated) in (2, 3) and verdict.within_lab_sd is True  # 3: interval too wide at 2
         assert verdict.relative_error_percent == pytest.approx(
             100 * abs(np.mean(verdict.simulated) - verdict.target) / verdict.target)
         for parameter, (lo, hi) in result.factor_ranges.items():
@@ -64,10 +71,12 @@ def test_unreachable_target_is_said_plainly(calibrated):
     campaign, cal = calibrated
     result = cal.conditions[2]
     (verdict,) = result.verdicts
-    assert not verdict.target_reachable and verdict.within_lab_sd is False
+    assert not verdict.target_reachable and verdict.simulated == [] and verdict.within_lab_sd is None
+    assert result.loop.status == "out of reach"
     text = " ".join(result.notes)
+    assert ("the loop stopped (out of reach): repose_angle_deg = 20 lies beyond what the test reaches within "
+            "the parameters' physical limits: they stop the path of steepest descent from box 0 at once.") in text
     assert "outside what the model reaches inside the design box" in text
-    assert "the target is outside what the design box can reach" in text
     assert "too low" in describe(cal)
     assert set(result.reference_predicted) == {"repose_angle_deg"}
 
@@ -79,7 +88,10 @@ def test_calibration_json_and_no_rerun(calibrated, tmp_path, monkeypatch):
     again = calibrate(campaign, simulate=False, progress=False)
     assert [c.chosen for c in again.conditions] == [c.chosen for c in cal.conditions]
     with Store(campaign.store_path, readonly=True) as store:
-        assert store.counts()["done"] == 29 + 3 * 2
+        # two replicates first; a third where the pooled sd's 95 % interval was still too wide
+        production = [len(c.verification) for c in cal.conditions]
+        assert production[:2] in ([2, 2], [3, 2], [2, 3], [3, 3]) and production[2] == 0
+        assert store.counts()["done"] == 29 + sum(production)
         finished = {r.key: r.finished_at for r in store.records()}
     # calibrating again with simulation on runs nothing: the verification runs are done.
     # Each execution of the test double drops a marker file (campaign_testbench.py).

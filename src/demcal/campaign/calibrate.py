@@ -88,6 +88,7 @@ class ConditionResult:
     specs: list[RunSpec]
     notes: list[str] = field(default_factory=list)
     reference_predicted: dict[str, float] = field(default_factory=dict)  #: response -> model at the published values
+    loop: Any = None  #: the :class:`demcal.campaign.loop.LoopResult` that found it
 
     @property
     def solutions(self) -> pd.DataFrame:
@@ -133,6 +134,7 @@ class Calibration:
                 "reference": dict(result.condition.reference),
                 "reference_predicted": result.reference_predicted,
                 "notes": result.notes,
+                **(_loop_dict(self.campaign, result.loop) if result.loop is not None else {}),
                 "verification": [
                     {"response": v.response, "target": v.target, "lab_sd": v.lab_sd, "predicted": v.predicted,
                      "simulated": v.simulated, "simulated_mean": _num(v.simulated_mean),
@@ -143,6 +145,19 @@ class Calibration:
                 ],
             })
         return out
+
+
+def _loop_dict(campaign: Campaign, loop) -> dict[str, Any]:
+    """The loop's status, boxes, history and discrepancy models, for calibration.json."""
+    kinds: dict[str, int] = {}
+    for step in loop.history:
+        kinds[step.stage] = kinds.get(step.stage, 0) + step.runs
+    return {"status": loop.status, "status_reason": loop.reason,
+            "production_profile": production_profile(campaign), "cheap_profile": campaign.profile,
+            "box": loop.box.to_dict(campaign), "boxes": [b.to_dict(campaign) for b in loop.boxes],
+            "history": [step.to_dict() for step in loop.history],
+            "discrepancy": {r: d.describe() for r, d in loop.discrepancy.items()},
+            "cheap_target": loop.cheap_target}
 
 
 def _num(value: float) -> float | None:
@@ -222,6 +237,7 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     store as far as they exist (what ``demcal report`` does).
     """
     store_path = campaign.store_path
+    production_profile(campaign)  # a production profile that does not suit the campaign: one sentence first
     if not store_path.is_file():
         raise DataError(f"{campaign.path.name} has no results yet; run `demcal run {campaign.path}` first.")
     with Store(store_path, readonly=True) as store:
@@ -269,57 +285,123 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
                         f"{campaign.profile} --retry-failed`, then calibrate again.")
         notes = warnings + [n for n in notes if "are left out of the fit" not in n]
 
-    names = campaign.factor_names
-    by_name = {f.name: f for f in campaign.factors}
-    results: list[ConditionResult] = []
-    all_specs: list[RunSpec] = []
-    for ci, condition in enumerate(campaign.conditions):
-        best, optimization, cond_notes = solve_condition(campaign, models, condition)
-        chosen = {by_name[n].parameter: _round(float(best[f"actual:{n}"])) for n in names}
-        coded = {n: float(by_name[n].to_coded(chosen[by_name[n].parameter])) for n in names}
-        point = np.array([coded[n] for n in names])
-        ranges = {by_name[n].parameter: tuple(map(float, r)) for n, r in optimization.factor_ranges.items()}
-        settings = point_settings(campaign, chosen)
-        specs = [RunSpec("verification", f"verify {condition.name} #{r + 1}", campaign.test, campaign.profile,
-                         chosen, settings, campaign.verification_seed + 1000 * ci + r)
-                 for r in range(campaign.verification_replicates)]
-        all_specs.extend(specs)
-        reference_predicted = {}
-        if condition.reference and all(f.parameter in condition.reference for f in campaign.factors):
-            ref = np.array([[by_name[n].to_coded(condition.reference[by_name[n].parameter]) for n in names]])
-            reference_predicted = {r: float(models[r].predict(ref)[0]) for r in campaign.response_names}
-        verdicts = []
-        for target in condition.targets:
-            model = models[target.response]
-            verdicts.append(ResponseVerdict(
-                response=target.response, target=target.mean, lab_sd=target.sd,
-                predicted=float(model.predict(point[None, :])[0]), simulated=[],
-                reachable=tuple(map(float, optimization.reachable.get(target.response, (np.nan, np.nan)))),
-            ))
-        results.append(ConditionResult(
-            condition=condition, chosen=chosen, chosen_coded=coded,
-            desirability=float(best["desirability"]), optimization=optimization,
-            factor_ranges=ranges, verdicts=verdicts, verification=[], specs=specs, notes=cond_notes,
-            reference_predicted=reference_predicted,
-        ))
-
-    if simulate and all_specs:
-        summary = run_specs(campaign, all_specs, workers=workers, scheduler=scheduler, progress=progress,
-                            retry_failed=retry_failed, executor=executor, desc=f"{campaign.name} verification")
-        if summary.failed:
-            notes.append(f"{summary.failed} verification runs failed (rerun with --retry-failed): "
-                         + "; ".join(f"{label}: {error}" for label, error in summary.failures[:3]))
-    with Store(store_path, readonly=True) as store:
-        for result in results:
-            result.verification = store.records([s.key for s in result.specs])
-            for verdict in result.verdicts:
-                verdict.simulated = [float(r.responses[verdict.response]) for r in result.verification
-                                     if r.status == "done" and verdict.response in r.responses]
-                _judge(result, verdict)
+    results = _close_loops(campaign, table, notes, simulate=simulate, workers=workers, scheduler=scheduler,
+                           progress=progress, retry_failed=retry_failed, executor=executor)
     calibration = Calibration(campaign, table, full, models, removed, results, notes, warnings)
     if simulate:
         write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
     return calibration
+
+
+def production_profile(campaign: Campaign) -> str:
+    """The profile the loop verifies at (``[calibration] production``, else the campaign's)."""
+    production = campaign.calibration.production or campaign.profile
+    if production != campaign.profile:
+        campaign.with_profile(production)  # its settings must suit that profile too
+    return production
+
+
+def _close_loops(campaign: Campaign, table: pd.DataFrame, notes: list[str], *, simulate: bool, workers, scheduler,
+                 progress: bool, retry_failed: bool, executor) -> list[ConditionResult]:
+    """Run :func:`demcal.campaign.loop.run_condition` for every condition."""
+    from demcal.campaign.executors import make_executor
+    from demcal.campaign.loop import run_condition
+    from demcal.optimize import reachable_range
+
+    production = production_profile(campaign)
+    store_path = campaign.store_path
+    own: list = []
+    cache: dict[str, Any] = {}
+
+    # The loop sees only the runs it has asked for so far (the design's, then each
+    # step's, in order), never runs that a later step or condition added to the store:
+    # that keeps a replay (resume, `demcal report`) identical to the first pass.
+    seen: set[str] = set(table["key"])
+
+    def records() -> list[RunRecord]:
+        if "all" not in cache:
+            with Store(store_path, readonly=True) as store:
+                cache["all"] = store.records()
+        return [r for r in cache["all"] if r.key in seen]
+
+    def run(specs: list[RunSpec], desc: str):
+        if simulate:
+            nonlocal executor
+            if executor is None and not own:
+                config = campaign.executor
+                own.append(make_executor(config.kind, config.workers if workers is None else workers,
+                                         scheduler or config.scheduler, config.start_method, campaign.plugins))
+            summary = run_specs(campaign, specs, workers=workers, scheduler=scheduler, progress=progress,
+                                retry_failed=retry_failed, executor=executor or own[0], desc=desc)
+            cache.clear()
+            if summary.failed:
+                line = (f"{summary.failed} runs of '{desc}' failed (rerun with --retry-failed): "
+                        + "; ".join(f"{label}: {error}" for label, error in summary.failures[:3]))
+                if line not in notes:
+                    notes.append(line)
+        with Store(store_path, readonly=True) as store:
+            found = {r.key: r for r in store.records([s.key for s in specs])}
+        out = [found.get(s.key) for s in specs]
+        if any(r is None or r.status not in ("done", "failed") for r in out):
+            return None
+        seen.update(s.key for s in specs)
+        cache.clear()
+        return out
+
+    results: list[ConditionResult] = []
+    residuals: dict[str, list] = {}  # production - cheap, learnt condition after condition
+    try:
+        for ci, condition in enumerate(campaign.conditions):
+            loop = run_condition(campaign, condition, ci, cheap=campaign.profile, production=production,
+                                 design_table=table, run=run, records=records, residuals=residuals)
+            results.append(_condition_result(campaign, condition, loop, reachable_range))
+    finally:
+        for ex in own:
+            ex.close()
+    return results
+
+
+def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_range) -> ConditionResult:
+    """The ConditionResult of a finished (or stopped) loop."""
+    from demcal.campaign.loop import CorrectedSurface
+
+    boxed = loop.box.campaign(campaign)
+    by_name = {f.name: f for f in boxed.factors}
+    names = campaign.factor_names
+    box0 = loop.boxes[0]
+    corrected = {r: CorrectedSurface(loop.models[r], loop.discrepancy[r], loop.box, box0) for r in loop.models
+                 if r in loop.discrepancy}
+    best, optimization, cond_notes = loop.best, loop.optimization, []
+    if best is None:  # stopped before a solve: the box's nearest point to the target
+        best, optimization, cond_notes = solve_condition(boxed, corrected or loop.models, condition)
+    chosen = {by_name[n].parameter: _round(float(best[f"actual:{n}"])) for n in names}
+    coded = {n: float(by_name[n].to_coded(chosen[by_name[n].parameter])) for n in names}
+    point = np.array([coded[n] for n in names])
+    ranges = {by_name[n].parameter: tuple(map(float, r)) for n, r in optimization.factor_ranges.items()}
+    reference_predicted = {}
+    if condition.reference and all(f.parameter in condition.reference for f in boxed.factors):
+        ref = np.array([[by_name[n].to_coded(condition.reference[by_name[n].parameter]) for n in names]])
+        reference_predicted = {r: float(m.predict(ref)[0]) for r, m in corrected.items()}
+    verdicts = []
+    for target in condition.targets:
+        model = corrected.get(target.response, loop.models[target.response])
+        verdicts.append(ResponseVerdict(
+            response=target.response, target=target.mean, lab_sd=target.sd,
+            predicted=float(model.predict(point[None, :])[0]), simulated=[],
+            reachable=tuple(map(float, reachable_range(model))),
+        ))
+    notes = list(cond_notes) + list(loop.notes)
+    if loop.status != "verified":
+        notes.insert(0, f"the loop stopped ({loop.status}): {loop.reason}.")
+    result = ConditionResult(
+        condition=condition, chosen=chosen, chosen_coded=coded, desirability=float(best["desirability"]),
+        optimization=optimization, factor_ranges=ranges, verdicts=verdicts, verification=list(loop.production),
+        specs=list(loop.specs), notes=notes, reference_predicted=reference_predicted, loop=loop)
+    for verdict in verdicts:
+        verdict.simulated = [float(r.responses[verdict.response]) for r in result.verification
+                             if r.status == "done" and verdict.response in r.responses]
+        _judge(result, verdict)
+    return result
 
 
 def _unfinished(campaign: Campaign, table: pd.DataFrame, unfinished: int, failed: int) -> DataError:
@@ -361,6 +443,11 @@ def describe(calibration: Calibration) -> str:
     for result in calibration.conditions:
         params = ", ".join(f"{k} = {v:g}" for k, v in result.chosen.items())
         lines.append(f"{result.condition.name}: {params}")
+        if result.loop is not None:
+            moved = len(result.loop.boxes) - 1
+            lines.append(f"  loop: {result.loop.status}"
+                         + (f" after {moved} box move{'s' if moved != 1 else ''}" if moved else "")
+                         + f"; {result.loop.reason}")
         for v in result.verdicts:
             inside = {True: "inside", False: "outside", None: "no lab sd"}[v.within_lab_sd]
             sim = (f"simulated {v.simulated_mean:.2f} (n={len(v.simulated)}), error {v.relative_error_percent:.2f} %, "

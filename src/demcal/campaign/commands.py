@@ -16,15 +16,22 @@ def register(subparsers) -> None:
          "Simulate every design point of a campaign file. Finished runs are kept in the "
          "campaign's store and skipped when run again; failed runs are retried only with "
          "--retry-failed.", "run failed points again"),
-        ("calibrate", _calibrate, "fit the response model, solve each target, verify by simulation",
-         "Fit the response model to the design results, solve it for each condition's lab "
-         "target and simulate the chosen parameters again (verification replicates).",
+        ("calibrate", _calibrate, "close the loop: fit, solve, move the box, verify at the production profile",
+         "Fit the response model to the design results and, for each condition's lab target, "
+         "move the design box along the path of steepest ascent when the target lies outside it, "
+         "solve, and simulate the chosen parameters at the production profile until the mean lies "
+         "inside the lab's spread with a 95 % interval narrower than the lab sd (or the budget is "
+         "spent); resumable like run.",
          "run failed verification runs again"),
     ):
         parser = add_command(subparsers, name, func, help, description)
         _common(parser)
         _execution(parser)
         parser.add_argument("--retry-failed", action="store_true", help=retry_help)
+        if name == "calibrate":
+            parser.add_argument("--production", metavar="PROFILE",
+                                help="verify at this profile (default: the file's [calibration] production, "
+                                     "else the design's profile); designs run at --profile")
 
     report = add_command(
         subparsers, "report", _report,
@@ -99,6 +106,12 @@ def _calibrate(args) -> int:
     from demcal.campaign.calibrate import calibrate, describe
 
     campaign = _load(args)
+    if args.production:
+        import dataclasses
+
+        campaign.with_profile(args.production)  # one sentence if it does not exist or does not suit
+        campaign = dataclasses.replace(campaign, calibration=dataclasses.replace(
+            campaign.calibration, production=args.production))
     calibration = calibrate(campaign, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet,
                             retry_failed=args.retry_failed)
     print(describe(calibration))

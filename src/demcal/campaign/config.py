@@ -14,7 +14,7 @@ example)::
 
     [campaign]      name, description, workdir, lab (a TOML file of lab records)
     [experiment]    test, profile, plugins, [experiment.settings] KEY = VALUE
-    [[factors]]     name, parameter, low, high, label, unit
+    [[factors]]     name, parameter, low, high, label, unit, hard_low, hard_high
     [design]        type, center, variant, alpha, fraction, levels, runs
     [[responses]]   name, label, unit
     [runs]          seed, replicates
@@ -22,6 +22,9 @@ example)::
     [[conditions]]  name, label, sample, photo, [conditions.targets] RESPONSE = {mean, sd},
                     [conditions.reference] PARAMETER = VALUE
     [verification]  replicates, seed
+    [calibration]   production, replicates, max_replicates, iterations, box_moves, path_points,
+                    path_replicates (the closed loop of :mod:`demcal.campaign.loop`)
+    [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table
 """
@@ -45,10 +48,10 @@ from demcal.errors import ConfigError
 #: Keys allowed in each table; the path uses ``[]`` for an array of tables.
 _ALLOWED: dict[str, tuple[str, ...]] = {
     "": ("campaign", "experiment", "factors", "design", "responses", "runs", "model",
-         "conditions", "verification", "executor", "report"),
+         "conditions", "verification", "calibration", "budget", "executor", "report"),
     "campaign": ("name", "description", "workdir", "lab"),
     "experiment": ("test", "profile", "plugins", "settings"),
-    "factors[]": ("name", "parameter", "low", "high", "label", "unit"),
+    "factors[]": ("name", "parameter", "low", "high", "label", "unit", "hard_low", "hard_high"),
     "design": ("type", "center", "variant", "alpha", "fraction", "levels", "runs"),
     "responses[]": ("name", "label", "unit"),
     "runs": ("seed", "replicates"),
@@ -56,6 +59,9 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "conditions[]": ("name", "label", "sample", "photo", "targets", "reference"),
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
+    "calibration": ("production", "replicates", "max_replicates", "iterations", "box_moves", "path_points",
+                    "path_replicates"),
+    "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
     "report": ("title", "reference_table"),
 }
@@ -71,6 +77,9 @@ class Factor(CodedFactor):
     high level, units, description; coded <-> actual) bound to an experiment setting."""
 
     parameter: str = ""  #: the experiment setting it drives, e.g. ``particle.restitution``
+    #: limits the calibration loop never moves the box beyond (None: the setting's own range)
+    hard_low: float | None = None
+    hard_high: float | None = None
 
 
 @dataclass(frozen=True)
@@ -113,6 +122,22 @@ class DesignConfig:
 
 
 @dataclass(frozen=True)
+class CalibrationConfig:
+    """``[calibration]`` and ``[budget]``: how ``demcal calibrate`` closes the loop
+    (:mod:`demcal.campaign.loop`)."""
+
+    production: str | None = None  #: production profile (None: the campaign's profile)
+    replicates: int | None = None  #: first production replicates (None: [verification] replicates)
+    max_replicates: int = 10  #: most production replicates at one point
+    iterations: int = 4  #: re-solves on the corrected surface per condition
+    box_moves: int = 3  #: most box moves per condition
+    path_points: int = 3  #: runs along the steepest path beyond the box, per move
+    path_replicates: int = 1  #: seeds per path point
+    budget_runs: int | None = None  #: most runs in the store (design runs included)
+    budget_cpu_hours: float | None = None  #: most run hours (sum of the runs' wall times)
+
+
+@dataclass(frozen=True)
 class ExecutorConfig:
     kind: str = "local"
     workers: int = 0  #: 0 = one per CPU core
@@ -143,6 +168,7 @@ class Campaign:
     verification_replicates: int = 3
     verification_seed: int = 100_000
     executor: ExecutorConfig = ExecutorConfig()
+    calibration: CalibrationConfig = CalibrationConfig()
     workdir: Path = Path(".")
     title: str = ""
     reference_table: Path | None = None  #: a published design table to re-analyse
@@ -355,6 +381,7 @@ class _Loader:
             verification_replicates=self.integer(verification, "replicates", ("verification",), 3, 0),
             verification_seed=self.integer(verification, "seed", ("verification",), 100_000, 0),
             executor=self.executor(),
+            calibration=self.calibration(experiment, factors, verification),
             workdir=workdir,
             title=str(report.get("title", name)),
             reference_table=reference_table,
@@ -454,9 +481,20 @@ class _Loader:
                     raise self.error(where + (level,),
                                      f"factor '{parameter}' has {level} {value:g}, but a coefficient of restitution must lie in (0, 1]")
                 self.check_setting(experiment, table, profile, parameter, value, where + (level,))
+            hard = {}
+            for key in ("hard_low", "hard_high"):
+                if key in data:
+                    hard[key] = self.number(data, key, where)
+                    self.check_setting(experiment, table, profile, parameter, hard[key], where + (key,))
+            if hard.get("hard_low", low) > low or hard.get("hard_high", high) < high:
+                key = "hard_low" if hard.get("hard_low", low) > low else "hard_high"
+                raise self.error(where + (key,),
+                                 f"factor '{parameter}' has {key} {hard[key]:g}, which excludes part of its "
+                                 f"design box ({low:g} to {high:g}); hard limits must contain low and high")
             unit = data.get("unit", table[parameter].unit)
             factors.append(Factor(name=name, low=low, high=high, units=str(unit),
-                                  description=str(data.get("label", parameter)), parameter=parameter))
+                                  description=str(data.get("label", parameter)), parameter=parameter,
+                                  hard_low=hard.get("hard_low"), hard_high=hard.get("hard_high")))
         return tuple(factors)
 
     def design(self, k: int) -> DesignConfig:
@@ -575,6 +613,48 @@ class _Loader:
                                         targets=tuple(targets), reference=reference, photo=photo,
                                         sample=sample))
         return tuple(conditions)
+
+    def calibration(self, experiment, factors, verification: Mapping) -> CalibrationConfig:
+        where = ("calibration",)
+        data = self.table(self.data, "calibration", ())
+        self.check_keys(data, where, "calibration")
+        production = None
+        if "production" in data:
+            profiles = tuple(experiment.profiles)
+            production = self.choice(data, "production", where, profiles, profiles[0])
+            from demcal.bench.registry import resolve_settings
+
+            try:
+                resolve_settings(experiment, {}, production)
+            except ConfigError as exc:  # pragma: no cover - a registered profile resolves
+                raise self.error(where + ("production",), str(exc)) from None
+        replicates = data.get("replicates")
+        if replicates is not None:
+            replicates = self.integer(data, "replicates", where, 3, 1)
+        budget = self.table(self.data, "budget", ())
+        self.check_keys(budget, ("budget",), "budget")
+        runs = hours = None
+        if "runs" in budget:
+            runs = self.integer(budget, "runs", ("budget",), 1, 1)
+        if "cpu_hours" in budget:
+            hours = self.number(budget, "cpu_hours", ("budget",))
+            if hours <= 0:
+                raise self.error(("budget", "cpu_hours"),
+                                 f"'cpu_hours' must be positive, got {hours:g}; give e.g. cpu_hours = 2")
+        config = CalibrationConfig(
+            production=production, replicates=replicates,
+            max_replicates=self.integer(data, "max_replicates", where, 10, 2),
+            iterations=self.integer(data, "iterations", where, 4, 1),
+            box_moves=self.integer(data, "box_moves", where, 3, 0),
+            path_points=self.integer(data, "path_points", where, 3, 1),
+            path_replicates=self.integer(data, "path_replicates", where, 1, 1),
+            budget_runs=runs, budget_cpu_hours=hours)
+        first = config.replicates or self.integer(verification, "replicates", ("verification",), 3, 0)
+        if first > config.max_replicates:
+            raise self.error(where + ("max_replicates",),
+                             f"'max_replicates' ({config.max_replicates}) is below the first production "
+                             f"replicates ({first}); raise it")
+        return config
 
     def executor(self) -> ExecutorConfig:
         where = ("executor",)

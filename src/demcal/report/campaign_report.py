@@ -109,6 +109,7 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
         _model_sections(report, cal, response, n)
 
     _calibration_sections(report, cal, n)
+    _loop_sections(report, cal, n)
     _verification_sections(report, cal, n)
     _images_section(report, cal, n)
     for note in cal.notes:
@@ -323,6 +324,48 @@ def _stale(cal: Calibration) -> list[str]:
     before = {c.get("name"): c.get("chosen") for c in saved.get("conditions", []) if isinstance(c, dict)}
     return [r.condition.name for r in cal.conditions
             if r.condition.name in before and before[r.condition.name] != r.chosen]
+
+
+def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
+    """The closed loop per condition: why it stopped, how the box moved, every step."""
+    loops = [(r, r.loop) for r in cal.conditions if r.loop is not None]
+    if not loops:
+        return
+    from demcal.campaign.calibrate import production_profile
+
+    c = cal.campaign
+    report.section("The calibration loop", 3)
+    report.paragraph(f"Designs and path points run at profile {c.profile}; the chosen parameters are verified at "
+                     f"profile {production_profile(c)}, and the difference between the two (production minus the "
+                     f"cheap model) corrects the target the model is solved for (demcal.campaign.loop).")
+    status, boxes, steps = [], [], []
+    for result, loop in loops:
+        name = result.condition.name
+        kinds: dict[str, int] = {}
+        for step in loop.history:
+            kinds[step.stage] = kinds.get(step.stage, 0) + step.runs
+        status.append({"condition": name, "status": loop.status, "boxes": len(loop.boxes),
+                       "path runs": kinds.get("path", 0), "new design runs": kinds.get("design", 0),
+                       "production runs": len(result.verification), "discrepancy":
+                       "; ".join(d.describe() for d in loop.discrepancy.values()), "why it stopped": loop.reason})
+        for box in loop.boxes:
+            row = {"condition": name, "box": box.index}
+            for f, lo, hi in zip(c.factors, box.low, box.high):
+                row[f.parameter] = f"{lo:.4g} to {hi:.4g}"
+            row["why"] = box.reason
+            boxes.append(row)
+        for step in loop.history:
+            steps.append({"condition": name, "iteration": step.iteration + 1, "box": step.box, "stage": step.stage,
+                          "runs": step.runs, "predicted": step.predicted, "simulated": step.simulated,
+                          "95 % half-width": step.half_width, "what happened": step.text})
+    report.table(pd.DataFrame(status).set_index("condition"), n("loop_status"),
+                 caption="How each condition's loop ended, and the runs it spent beyond the campaign's design")
+    report.table(pd.DataFrame(boxes).set_index("condition"), n("loop_boxes"),
+                 caption="Design boxes (box 0 is the campaign's; a box moves along the path of steepest "
+                         "ascent or descent when a target lies outside what the model reaches)")
+    if steps:
+        report.table(pd.DataFrame(steps).set_index("condition"), n("loop_history"),
+                     caption="Every step of the loop (predicted: the corrected model at the chosen parameters)")
 
 
 def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:

@@ -1,0 +1,117 @@
+"""Run a bench study: one ``demcal bench`` run per (case, seed), one JSON line each.
+
+    python benchmarks/bench_study.py PLAN.json RESULTS.jsonl [--threads 1]
+
+``PLAN.json`` is a list of cases::
+
+    [{"case": "funnel N1500 outlet 0.05", "test": "repose-funnel", "profile": "quick",
+      "set": {"particles.count": 1500}, "seeds": [1, 2, 3, 4, 5]}, ...]
+
+Each finished run is appended to ``RESULTS.jsonl`` as soon as it ends (its case, seed,
+settings, responses, particles, steps and wall time), so a study that is stopped resumes
+where it was: runs already in the file are skipped. Runs go one at a time, in plan order
+with the seeds interleaved (every case gets its first seed before any gets its second), so
+a study cut short still has every case. The tables in ``docs/validation.md`` are written
+from these files by ``--summary``::
+
+    python benchmarks/bench_study.py PLAN.json RESULTS.jsonl --summary
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+RESPONSE = {"repose-funnel": "repose_angle_deg", "repose-cylinder": "repose_angle_deg",
+            "incline": "sliding_angle_deg", "impact": "restitution"}
+
+
+def _done(results: Path) -> dict[tuple[str, int], dict]:
+    out = {}
+    if results.is_file():
+        for line in results.read_text().splitlines():
+            if line.strip():
+                row = json.loads(line)
+                out[(row["case"], int(row["seed"]))] = row
+    return out
+
+
+def _order(plan: list[dict]) -> list[tuple[dict, int]]:
+    depth = max(len(c["seeds"]) for c in plan)
+    return [(c, c["seeds"][i]) for i in range(depth) for c in plan if i < len(c["seeds"])]
+
+
+def run(plan: list[dict], results: Path, threads: int) -> None:
+    done = _done(results)
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
+    demcal = str(Path(sys.executable).with_name("demcal"))
+    for case, seed in _order(plan):
+        if (case["case"], seed) in done:
+            continue
+        cmd = [demcal, "bench", case["test"], "--profile", case["profile"], "--seed", str(seed), "--json"]
+        for key, value in case.get("set", {}).items():
+            cmd += ["--set", f"{key}={value}"]
+        start = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+        wall = time.perf_counter() - start
+        row = {"case": case["case"], "seed": seed, "test": case["test"], "profile": case["profile"],
+               "set": case.get("set", {}), "threads": threads, "wall_s": round(wall, 1)}
+        if proc.returncode == 0:
+            out = json.loads(proc.stdout)
+            row.update(responses=out["responses"], spread=out.get("spread", {}),
+                       particles=out.get("particles"), steps=out.get("steps"),
+                       simulated_s=out.get("simulated_s"))
+        else:
+            row["error"] = (proc.stderr.strip().splitlines() or ["exit %d" % proc.returncode])[-1]
+        with results.open("a") as fh:
+            fh.write(json.dumps(row) + "\n")
+        print(f"{case['case']} seed {seed}: "
+              + (f"{row['responses'][RESPONSE[case['test']]]:.2f}" if "responses" in row else row["error"])
+              + f" ({wall:.0f} s)", flush=True)
+
+
+def summary(plan: list[dict], results: Path) -> str:
+    import numpy as np
+
+    done = _done(results)
+    lines = ["| case | seeds | response, each seed [°] | mean | sd | particles | wall s (mean) |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
+    for case in plan:
+        rows = [done[(case["case"], s)] for s in case["seeds"] if (case["case"], s) in done]
+        ok = [r for r in rows if "responses" in r]
+        if not rows:
+            continue
+        vals = np.array([r["responses"][RESPONSE[case["test"]]] for r in ok])
+        each = ", ".join(f"{v:.2f}" for v in vals) + ("" if len(ok) == len(rows) else
+                                                       f" ({len(rows) - len(ok)} failed)")
+        sd = f"{vals.std(ddof=1):.2f}" if len(vals) > 1 else "--"
+        mean = f"{vals.mean():.2f}" if len(vals) else "--"
+        parts = ok[0]["particles"] if ok else "--"
+        wall = f"{np.mean([r['wall_s'] for r in rows]):.0f}"
+        lines.append(f"| {case['case']} | {', '.join(str(r['seed']) for r in rows)} | {each} | {mean} | "
+                     f"{sd} | {parts} | {wall} |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("plan", type=Path)
+    ap.add_argument("results", type=Path)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--summary", action="store_true", help="print the results as a Markdown table")
+    args = ap.parse_args(argv)
+    plan = json.loads(args.plan.read_text())
+    if args.summary:
+        print(summary(plan, args.results))
+    else:
+        run(plan, args.results, args.threads)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

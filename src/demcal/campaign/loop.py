@@ -1,0 +1,623 @@
+"""The closed calibration loop: move the box, correct between fidelities, verify.
+
+``demcal calibrate`` runs one loop per condition (paper §2.3 and §3.2 made a loop):
+
+1. **Fit and solve** the campaign's response model on the cheap profile's runs inside
+   the current box (box 0 is the campaign's own design). The target the cheap model
+   must meet is the lab's mean minus the *discrepancy* between the production profile
+   and the cheap model (zero until production runs exist).
+2. **Move the box** when that target lies outside what the model reaches in the box:
+   the classic path of steepest ascent (or descent) from the box centre, along the
+   model's gradient there in coded units, scaled so the factor with the largest effect
+   moves one half-width per step (Montgomery, *Design and Analysis of Experiments*,
+   §11.2; Myers, Montgomery & Anderson-Cook, *Response Surface Methodology*, ch. 5).
+   Each parameter stays inside its physical limits (the bench setting's range,
+   restitution in (0, 1], and the factor's ``hard_low`` / ``hard_high``); a factor at
+   its limit stops moving and the others go on (the projected path). Points beyond the
+   box edge are simulated at the cheap profile; where the simulated response crosses
+   the target, a new design of the campaign's kind is laid around that point (the
+   original half-widths), and every earlier cheap design or path run inside the new
+   box is fitted with it. When the path ends at the limits without crossing, the
+   condition stops: the target is out of the test's reach.
+3. **Production runs** at the solution nearest the box centre, with replicates (their
+   seed-to-seed sd, pooled over every production point, is the noise). The
+   discrepancy ``production - cheap model`` is modelled as an additive bias with its
+   standard error, and, once there are ``k + 2`` distinct production points, as a
+   Gaussian process in the coded factors (scikit-learn's
+   ``GaussianProcessRegressor``, a constant x RBF kernel plus white noise) around that
+   bias. The model is re-solved on the corrected surface and the loop repeats.
+4. **Stop** when the production mean at the chosen parameters lies inside the lab's
+   mean +- sd and the half-width of its 95 % interval (Student t, pooled sd) is below
+   the lab sd -- more replicates are run while the mean is inside but the interval is
+   not narrow enough -- or when ``[calibration] iterations`` or
+   ``max_replicates`` are spent, the ``[budget]`` is spent, or the target is out of
+   reach. Each stop says why in one sentence.
+
+Every decision is a deterministic function of the runs in the store (fits, seeded
+searches, seeds derived from the point and replicate), so a loop that is interrupted
+replays to where it was and runs only what is missing, and ``demcal report`` replays it
+without running anything.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from demcal.campaign.config import Campaign, Condition
+from demcal.campaign.store import RunRecord, RunSpec
+
+#: Seeds of runs the loop adds: path points and moved boxes' designs (plus the
+#: campaign's ``[runs] seed``); production runs use ``[verification] seed``.
+PATH_SEED = 20_000
+BOX_SEED = 50_000
+#: A point counts as inside a box up to this far beyond its coded edge.
+INSIDE_TOL = 1e-6
+
+#: Why a condition's loop ended.
+VERIFIED, OUT_OF_REACH, BUDGET, ITERATIONS, NOISE, UNFINISHED, NOT_VERIFIED = (
+    "verified", "out of reach", "budget spent", "iterations spent", "noise", "unfinished", "not verified")
+
+
+@dataclass(frozen=True)
+class Box:
+    """A design box in actual units; box 0 is the campaign's own."""
+
+    index: int
+    low: tuple[float, ...]
+    high: tuple[float, ...]
+    reason: str = "the campaign's design box"
+
+    @property
+    def centre(self) -> np.ndarray:
+        return 0.5 * (np.asarray(self.low) + np.asarray(self.high))
+
+    @property
+    def half(self) -> np.ndarray:
+        return 0.5 * (np.asarray(self.high) - np.asarray(self.low))
+
+    def campaign(self, campaign: Campaign) -> Campaign:
+        """The campaign with this box's factor levels (and its own design seeds)."""
+        if self.index == 0:
+            return campaign
+        factors = tuple(dataclasses.replace(f, low=_round(lo), high=_round(hi))
+                        for f, lo, hi in zip(campaign.factors, self.low, self.high))
+        return dataclasses.replace(campaign, factors=factors, seed=campaign.seed + BOX_SEED * self.index)
+
+    def to_coded(self, actual) -> np.ndarray:
+        return (np.asarray(actual, float) - self.centre) / self.half
+
+    def to_actual(self, coded) -> np.ndarray:
+        return self.centre + np.asarray(coded, float) * self.half
+
+    def to_dict(self, campaign: Campaign) -> dict[str, Any]:
+        return {"index": self.index, "reason": self.reason,
+                "low": {f.parameter: _round(v) for f, v in zip(campaign.factors, self.low)},
+                "high": {f.parameter: _round(v) for f, v in zip(campaign.factors, self.high)}}
+
+
+def _round(value: float, digits: int = 12) -> float:
+    return float(f"{float(value):.{digits}g}")
+
+
+def _clean(values, limits: np.ndarray) -> np.ndarray:
+    """Actual values clipped to their limits and rid of binary noise (-2.8e-17 -> 0)."""
+    return np.clip(np.round(np.asarray(values, float), 10), limits[:, 0], limits[:, 1]) + 0.0
+
+
+def physical_limits(campaign: Campaign, profile: str) -> np.ndarray:
+    """``(k, 2)`` limits of each factor in actual units: the bench setting's range,
+    restitution in (0, 1], and the factor's ``hard_low`` / ``hard_high``."""
+    from demcal.bench.registry import get_experiment
+
+    table = get_experiment(campaign.test).settings(profile)
+    out = []
+    for f in campaign.factors:
+        setting = table[f.parameter]
+        lo = -math.inf if setting.low is None else float(setting.low)
+        hi = math.inf if setting.high is None else float(setting.high)
+        if "restitution" in f.parameter.rsplit(".", 1)[-1]:
+            lo, hi = max(lo, 1e-3), min(hi, 1.0)
+        if f.hard_low is not None:
+            lo = max(lo, f.hard_low)
+        if f.hard_high is not None:
+            hi = min(hi, f.hard_high)
+        out.append((lo, hi))
+    return np.array(out, dtype=float)
+
+
+def fit_box(campaign: Campaign, box: Box, records: Sequence[RunRecord], cheap: str, design_table=None):
+    """Full and reduced models of the cheap runs inside ``box`` (box 0: its design only)."""
+    from demcal.campaign.calibrate import fit_models
+
+    boxed = box.campaign(campaign)
+    if box.index == 0 and design_table is not None:
+        table = design_table
+    else:
+        rows = []
+        for r in _own(campaign, records, cheap, kinds=("design", "path")):
+            x = _point(campaign, r)
+            coded = box.to_coded(x)
+            if np.all(np.abs(coded) <= 1 + INSIDE_TOL):
+                row = {f.name: float(c) for f, c in zip(campaign.factors, coded)}
+                row.update({name: r.responses.get(name, np.nan) for name in campaign.response_names})
+                rows.append(row)
+        table = pd.DataFrame(rows, columns=campaign.factor_names + campaign.response_names)
+    return fit_models(boxed, table) + (table,)
+
+
+def _own(campaign: Campaign, records: Sequence[RunRecord], profile: str, kinds: tuple[str, ...]):
+    """Done runs of this campaign's test at ``profile`` with its fixed settings."""
+    params = {f.parameter for f in campaign.factors}
+    fixed = dict(campaign.settings)
+    for r in records:
+        if (r.status != "done" or r.test != campaign.test or r.profile != profile or r.kind not in kinds
+                or not params <= set(r.parameters)):
+            continue
+        if {k: v for k, v in r.settings.items() if k not in params} != fixed:
+            continue
+        yield r
+
+
+def _point(campaign: Campaign, record: RunRecord) -> np.ndarray:
+    return np.array([float(record.parameters[f.parameter]) for f in campaign.factors])
+
+
+class Discrepancy:
+    """``production - cheap model`` as an additive bias (+ a Gaussian process once
+    there are ``k + 2`` distinct production points).
+
+    Each residual is a production run's response minus the cheap model of the box it
+    was solved in, at its point (so a moved box keeps what earlier boxes learnt); the
+    Gaussian process works in the coded units of the campaign's own box, box 0.
+    """
+
+    def __init__(self, residuals: Sequence[tuple[np.ndarray, float]]):
+        self.n = len(residuals)
+        self.kind = "none"
+        self.bias, self.bias_se = 0.0, float("nan")
+        self.gp = None
+        self.distinct = 0
+        if not residuals:
+            return
+        x = np.array([p for p, _ in residuals], dtype=float)
+        res = np.array([r for _, r in residuals], dtype=float)
+        self.kind = "additive"
+        self.bias = float(res.mean())
+        self.bias_se = float(res.std(ddof=1) / math.sqrt(len(res))) if len(res) > 1 else float("nan")
+        distinct = np.unique(np.round(x, 6), axis=0)
+        self.distinct = len(distinct)
+        if len(distinct) >= x.shape[1] + 2:
+            from sklearn.gaussian_process import GaussianProcessRegressor
+            from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
+            kernel = (ConstantKernel(1.0, (1e-3, 1e3)) * RBF(np.ones(x.shape[1]), (0.1, 10.0))
+                      + WhiteKernel(1.0, (1e-4, 1e2)))
+            self.gp = GaussianProcessRegressor(kernel, normalize_y=False, random_state=0,
+                                               n_restarts_optimizer=2).fit(x, res - self.bias)
+            self.kind = "gaussian process"
+
+    def __call__(self, coded0) -> tuple[float, float]:
+        """Mean and standard deviation of the discrepancy at one point (box-0 coded)."""
+        if self.gp is None:
+            return self.bias, self.bias_se
+        mean, sd = self.gp.predict(np.atleast_2d(coded0), return_std=True)
+        return self.bias + float(mean[0]), float(sd[0])
+
+    def describe(self) -> str:
+        if self.kind == "none":
+            return "no production run yet (discrepancy 0)"
+        se = f" ± {self.bias_se:.2f}" if np.isfinite(self.bias_se) else ""
+        text = f"additive bias {self.bias:+.2f}{se} from {self.n} production runs"
+        if self.gp is not None:
+            text += f", Gaussian process over {self.distinct} points ({self.gp.kernel_})"
+        return text
+
+
+class CorrectedSurface:
+    """A box's response surface plus the discrepancy: what the production profile gives."""
+
+    def __init__(self, model, discrepancy: Discrepancy, box: Box | None = None, box0: Box | None = None):
+        self.model, self.discrepancy = model, discrepancy
+        self.factors, self.response = model.factors, model.response
+        # box coded -> box-0 coded: x0 = x * scale + shift
+        if box is None or box0 is None:
+            self._scale, self._shift = 1.0, 0.0
+        else:
+            self._scale, self._shift = box.half / box0.half, (box.centre - box0.centre) / box0.half
+
+    def __getattr__(self, name):  # everything else (to_actual, fit, ...) is the model's
+        return getattr(self.model, name)
+
+    @property
+    def y(self) -> np.ndarray:
+        """The fitted runs' responses, shifted by the bias (the optimiser's default limits)."""
+        return self.model.y + self.discrepancy.bias
+
+    def _gp(self, pts: np.ndarray) -> np.ndarray:
+        return self.discrepancy.gp.predict(pts * self._scale + self._shift)
+
+    def predict(self, coded):
+        coded = np.asarray(coded, float)
+        base = self.model.predict(coded)
+        if self.discrepancy.gp is None:
+            return base + self.discrepancy.bias
+        extra = self.discrepancy.bias + self._gp(np.atleast_2d(coded))
+        return base + (extra[0] if coded.ndim == 1 else extra)
+
+    def gradient(self, coded):
+        coded = np.asarray(coded, float)
+        grad = self.model.gradient(coded)
+        if self.discrepancy.gp is None:
+            return grad
+        pts = np.atleast_2d(coded)
+        h = 1e-4
+        g = np.zeros_like(pts)
+        for j in range(pts.shape[1]):
+            step = np.zeros(pts.shape[1])
+            step[j] = h
+            g[:, j] = (self._gp(pts + step) - self._gp(pts - step)) / (2 * h)
+        return grad + (g[0] if coded.ndim == 1 else g)
+
+
+@dataclass
+class Step:
+    """One line of a condition's loop history."""
+
+    iteration: int
+    box: int
+    stage: str  #: "solve", "path", "design", "production"
+    runs: int  #: runs this step asked for (done before or now)
+    text: str
+    predicted: float | None = None
+    simulated: float | None = None
+    half_width: float | None = None
+    discrepancy: str = ""
+    point: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass
+class LoopResult:
+    """What the loop found for one condition."""
+
+    status: str
+    reason: str
+    box: Box
+    boxes: list[Box]
+    models: dict  #: response -> the (reduced) model of the final box
+    full: dict
+    removed: dict
+    discrepancy: dict  #: response -> Discrepancy
+    best: Any  #: the chosen solution (pd.Series) in the final box
+    optimization: Any
+    production: list[RunRecord]  #: the runs at the chosen point
+    specs: list[RunSpec]
+    history: list[Step]
+    notes: list[str]
+    cheap_target: dict[str, float]
+
+
+class Budget:
+    """``[budget]``: runs in the store and their summed wall time."""
+
+    def __init__(self, campaign: Campaign):
+        self.runs = campaign.calibration.budget_runs
+        self.hours = campaign.calibration.budget_cpu_hours
+
+    def exceeded(self, records: Sequence[RunRecord], new: int) -> str | None:
+        used = len([r for r in records if r.status in ("done", "failed", "running")])
+        if self.runs is not None and used + new > self.runs:
+            return (f"the budget of {self.runs} runs is spent ({used} in the store, {new} more needed); "
+                    f"raise [budget] runs to go on")
+        hours = sum((r.wall_s or 0.0) for r in records if r.status in ("done", "failed")) / 3600.0
+        if self.hours is not None and hours >= self.hours:
+            return (f"the budget of {self.hours:g} run hours is spent ({hours:.2f} h used); "
+                    f"raise [budget] cpu_hours to go on")
+        return None
+
+
+#: ``run(specs, desc) -> records`` runs what is missing (or, replaying, only reads);
+#: it returns None when a spec has no finished run and nothing may be run.
+Runner = Callable[[list[RunSpec], str], "list[RunRecord] | None"]
+
+
+def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: str, production: str,
+                  design_table: pd.DataFrame, run: Runner, records: Callable[[], list[RunRecord]],
+                  residuals: dict[str, list] | None = None, seed: int = 0) -> LoopResult:
+    """The loop for one condition (module docstring)."""
+    from demcal.campaign.calibrate import _round as round_parameter
+    from demcal.campaign.calibrate import solve_condition
+    from demcal.optimize import reachable_range
+
+    cfg = campaign.calibration
+    limits = physical_limits(campaign, cheap)
+    first_replicates = cfg.replicates or campaign.verification_replicates
+    budget = Budget(campaign)
+    names = campaign.factor_names
+    responses = [t.response for t in condition.targets]
+    f0 = campaign.factors
+    box = Box(0, tuple(f.low for f in f0), tuple(f.high for f in f0))
+    boxes = [box]
+    history: list[Step] = []
+    notes: list[str] = []
+    moves = 0
+    replicates = first_replicates
+    box0 = box
+    #: response -> [(box-0 coded point, production - cheap model)], shared by the conditions
+    residuals = {} if residuals is None else residuals
+    counted: set[str] = set()
+    point_key = None
+
+    def stop(status: str, reason: str, **state) -> LoopResult:
+        return LoopResult(status=status, reason=reason, box=box, boxes=boxes, models=state.get("models", {}),
+                          full=state.get("full", {}), removed=state.get("removed", {}),
+                          discrepancy=state.get("disc", {}), best=state.get("best"),
+                          optimization=state.get("optimization"), production=state.get("prod", []),
+                          specs=state.get("specs", []), history=history, notes=notes,
+                          cheap_target=state.get("cheap_target", {}))
+
+    iteration = 0
+    state: dict[str, Any] = {}
+    hold = None
+    while True:
+        if hold is None:  # else: the same point again, with more replicates
+            full, models, removed, fit_notes, table = fit_box(campaign, box, records(), cheap, design_table)
+            notes.extend(n for n in fit_notes if n not in notes)
+            state.update(models=models, full=full, removed=removed)
+            disc = {r: Discrepancy(residuals.get(r, [])) for r in responses}
+            state["disc"] = disc
+            centre0 = box0.to_coded(box.centre)
+            cheap_target = {t.response: t.mean - disc[t.response](centre0)[0] for t in condition.targets}
+            state["cheap_target"] = cheap_target
+            # Reachability on the corrected surface.
+            corrected = {r: CorrectedSurface(models[r], disc[r], box, box0) for r in responses}
+            outside = None
+            for t in condition.targets:
+                lo, hi = reachable_range(corrected[t.response], seed=seed)
+                if not lo <= t.mean <= hi:
+                    outside = (t, lo, hi)
+                    break
+            if outside is not None:
+                t, lo, hi = outside
+                if moves >= cfg.box_moves:
+                    return stop(OUT_OF_REACH if cfg.box_moves == 0 else ITERATIONS,
+                                f"the target {t.response} = {t.mean:g} lies outside what box {box.index} reaches "
+                                f"({lo:.2f} to {hi:.2f} with the discrepancy) and the {cfg.box_moves} box moves "
+                                f"allowed are spent; raise [calibration] box_moves or widen the factor levels",
+                                **state)
+                moved = _move(campaign, condition, box, corrected[t.response], t.mean, lo, hi, limits, run,
+                              records, budget, history, iteration, moves, cheap, cfg)
+                if isinstance(moved, tuple):
+                    return stop(*moved, **state)
+                box = moved
+                boxes.append(box)
+                moves += 1
+                continue
+            # Solve on the corrected surface.
+            best, optimization, solve_notes = solve_condition(box.campaign(campaign), corrected, condition, seed=seed)
+            state.update(best=best, optimization=optimization)
+            chosen = {f.parameter: round_parameter(float(best[f"actual:{f.name}"]))
+                      for f in box.campaign(campaign).factors}
+            coded = box.to_coded([chosen[f.parameter] for f in f0])
+            predicted = {r: float(corrected[r].predict(coded)) for r in responses}
+            key = tuple(sorted(chosen.items()))
+            if key != point_key:
+                point_key, replicates = key, first_replicates
+        hold = None
+        if replicates == 0:
+            return stop(NOT_VERIFIED, "no production replicates are asked for ([verification] replicates = 0)",
+                        **state)
+        specs = _production_specs(campaign, condition, ci, chosen, production, replicates)
+        state["specs"] = specs
+        done, stopped = _spend(specs, f"{campaign.name} {condition.name} production",
+                               f"the production runs at {_show(chosen)}", campaign, run, records, budget)
+        if stopped:
+            return stop(*stopped, **state)
+        state["prod"] = done
+        ok = [r for r in done if r.status == "done"]
+        for rec in ok:  # what this point teaches about production - cheap
+            if rec.key not in counted:
+                counted.add(rec.key)
+                x0 = box0.to_coded(_point(campaign, rec))
+                for r in responses:
+                    if r in rec.responses:
+                        residuals.setdefault(r, []).append(
+                            (x0, float(rec.responses[r]) - float(models[r].predict(coded))))
+        if len(ok) < len(done):
+            failed = [r for r in done if r.status != "done"]
+            return stop(NOT_VERIFIED, f"{len(failed)} production runs failed ({failed[0].label}: "
+                        f"{failed[0].error}); rerun them with --retry-failed", **state)
+        noise = _pooled_sd(campaign, _own(campaign, records(), production, kinds=("verification",)), responses)
+        verdict = []
+        for t in condition.targets:
+            values = np.array([r.responses[t.response] for r in ok])
+            mean = float(values.mean())
+            sd, df = noise.get(t.response, (float("nan"), 0))
+            from scipy import stats
+
+            half = float(stats.t.ppf(0.975, df) * sd / math.sqrt(len(values))) if df > 0 else float("inf")
+            inside = t.sd is None or abs(mean - t.mean) <= t.sd
+            narrow = t.sd is None or half < t.sd
+            verdict.append((t, mean, half, inside, narrow, sd))
+            history.append(Step(iteration, box.index, "production", len(specs),
+                                f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %) against "
+                                f"{t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
+                                predicted=predicted[t.response], simulated=mean, half_width=half,
+                                discrepancy=disc[t.response].describe(), point=dict(chosen)))
+        if all(v[3] and v[4] for v in verdict):
+            return stop(VERIFIED, "the production mean lies inside the lab's mean ± sd and its 95 % "
+                        "interval is narrower than the lab sd", **state)
+        if all(v[3] for v in verdict):
+            # Inside, but not yet sure: more replicates where the noise asks for them.
+            if replicates >= cfg.max_replicates:
+                t, mean, half, *_ = next(v for v in verdict if not v[4])
+                return stop(NOISE, f"{t.response}: the mean {mean:.2f} is inside the lab spread, but its 95 % "
+                            f"interval ± {half:.2f} is not narrower than the lab sd {t.sd:g} after "
+                            f"{replicates} replicates; raise [calibration] max_replicates", **state)
+            need = replicates + 1
+            for t, mean, half, inside, narrow, sd in verdict:
+                if not narrow and t.sd and np.isfinite(sd):
+                    need = max(need, math.ceil((1.96 * sd / t.sd) ** 2) + 1)
+            replicates = min(cfg.max_replicates, need)
+            hold = True
+            continue
+        iteration += 1
+        if iteration >= cfg.iterations:
+            t, mean, *_ = next(v for v in verdict if not v[3])
+            return stop(ITERATIONS, f"{t.response}: the production mean {mean:.2f} still misses "
+                        f"{t.mean:g} ± {t.sd:g} after {cfg.iterations} solves on the corrected surface; "
+                        f"raise [calibration] iterations", **state)
+
+
+def _production_specs(campaign, condition, ci, chosen, production, replicates) -> list[RunSpec]:
+    from demcal.campaign.runner import point_settings
+
+    settings = point_settings(campaign, chosen)
+    return [RunSpec("verification", f"verify {condition.name} #{r + 1}", campaign.test, production, chosen,
+                    settings, campaign.verification_seed + 1000 * ci + r) for r in range(replicates)]
+
+
+def _spend(specs, desc, what, campaign, run, records, budget):
+    """Run ``specs`` within the budget: ``(records, None)``, or ``(None, (status, reason))``."""
+    reason = budget.exceeded(records(), _missing(specs, records()))
+    if reason:
+        return None, (BUDGET, reason)
+    done = run(specs, desc)
+    if done is None:
+        return None, (UNFINISHED, f"{what} are not done yet; run `demcal calibrate {campaign.path}` to finish them")
+    return done, None
+
+
+def _missing(specs, records) -> int:
+    done = {r.key for r in records if r.status in ("done", "failed")}
+    return len({s.key for s in specs} - done)
+
+
+def _pooled_sd(campaign, runs, responses) -> dict[str, tuple[float, int]]:
+    """Within-point sd of the production runs pooled over points, and its degrees of freedom."""
+    groups: dict[tuple, list[RunRecord]] = {}
+    for r in runs:
+        groups.setdefault(tuple(sorted(r.parameters.items())), []).append(r)
+    out = {}
+    for name in responses:
+        ss, df = 0.0, 0
+        for rows in groups.values():
+            v = np.array([r.responses[name] for r in rows if name in r.responses])
+            if len(v) > 1:
+                ss += float(((v - v.mean()) ** 2).sum())
+                df += len(v) - 1
+        out[name] = (math.sqrt(ss / df) if df else float("nan"), df)
+    return out
+
+
+def _show(params: dict[str, float]) -> str:
+    return ", ".join(f"{k} = {v:g}" for k, v in params.items())
+
+
+def _move(campaign, condition, box, model, target, lo, hi, limits, run, records, budget, history, iteration,
+          moves, cheap, cfg):
+    """Follow the steepest path from ``box`` toward ``target``; the new box, or
+    ``(status, reason)`` when the loop must stop."""
+    k = len(campaign.factors)
+    sign = 1.0 if target > hi else -1.0
+    grad = sign * np.asarray(model.gradient(np.zeros(k)), float)
+    coded_lo = (limits[:, 0] - box.centre) / box.half
+    coded_hi = (limits[:, 1] - box.centre) / box.half
+    if np.max(np.abs(grad)) < 1e-12:
+        return OUT_OF_REACH, (f"the model is flat at the centre of box {box.index}, so no path leads toward "
+                              f"{condition.targets[0].response} = {target:g}")
+    # The projected path: a factor at its limit stops; the others go on, rescaled so the
+    # fastest free factor still moves one half-width per step.
+    points, ks, x = [], [], np.zeros(k)
+    for j in range(1, cfg.path_points + 2):
+        free = ~(((x >= coded_hi - 1e-9) & (grad > 0)) | ((x <= coded_lo + 1e-9) & (grad < 0)))
+        g = np.where(free, grad, 0.0)
+        if np.max(np.abs(g)) < 1e-12:
+            break  # every factor that moves the response is at a limit
+        x = np.clip(x + g / np.max(np.abs(g)), coded_lo, coded_hi)
+        if j > 1 and np.all(np.abs(x) <= 1 + INSIDE_TOL):
+            break  # held inside the box the model already covers
+        points.append(x.copy())
+        ks.append(j)
+    # Step 1 lies in the box: the model predicts it; the rest are simulated.
+    from demcal.campaign.calibrate import _round as round_parameter
+    from demcal.campaign.runner import point_settings
+
+    specs, where = [], []
+    for j, x in zip(ks[1:], points[1:]):
+        actual = _clean(box.to_actual(x), limits)
+        params = {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
+        for r in range(cfg.path_replicates):
+            seed = campaign.seed + PATH_SEED + 997 * box.index + 10 * j + r
+            specs.append(RunSpec("path", f"path box {box.index} step {j}" + (f" r{r + 1}" if r else ""),
+                                 campaign.test, cheap, params, point_settings(campaign, params), seed))
+            where.append(j)
+    response = model.response
+    if not specs:
+        return OUT_OF_REACH, (f"{response} = {target:g} lies beyond what the test reaches within the parameters' "
+                              f"physical limits: they stop the path of steepest {'ascent' if sign > 0 else 'descent'} "
+                              f"from box {box.index} at once")
+    done, stopped = _spend(specs, f"{campaign.name} {condition.name} path", f"the path runs of box {box.index}",
+                           campaign, run, records, budget)
+    if stopped:
+        return stopped
+    by_step: dict[int, list[float]] = {}
+    for j, rec in zip(where, done):
+        if rec.status == "done" and response in rec.responses:
+            by_step.setdefault(j, []).append(float(rec.responses[response]))
+    ys = [float(model.predict(points[0]))] + [float(np.mean(by_step[j])) if j in by_step else np.nan
+                                               for j in ks[1:]]
+    history.append(Step(iteration, box.index, "path", len(specs),
+                        f"target {target:g} outside box {box.index} ({lo:.2f} to {hi:.2f}); steepest "
+                        f"{'ascent' if sign > 0 else 'descent'} gave "
+                        + ", ".join(f"{y:.2f}" for y in ys[1:]) + f" at steps {', '.join(map(str, ks[1:]))}",
+                        point={f.parameter: _round(v, 4) for f, v in zip(campaign.factors, box.to_actual(points[-1]))}))
+    crossing = None
+    for i in range(1, len(ys)):
+        if np.isfinite(ys[i]) and sign * (ys[i] - target) >= 0:
+            a = ys[i - 1] if np.isfinite(ys[i - 1]) else ys[0]
+            frac = 1.0 if ys[i] == a else float(np.clip((target - a) / (ys[i] - a), 0.0, 1.0))
+            crossing = points[i - 1] + frac * (points[i] - points[i - 1])
+            break
+    last = points[-1]
+    at_limit = not np.any((np.abs(grad) > 1e-12) & ~(((last >= coded_hi - 1e-9) & (grad > 0))
+                                                      | ((last <= coded_lo + 1e-9) & (grad < 0))))
+    if crossing is None:
+        if at_limit or len(points) < cfg.path_points + 1:
+            best = np.nanmax(ys) if sign > 0 else np.nanmin(ys)
+            return OUT_OF_REACH, (f"{response} = {target:g} lies beyond what the test reaches within the "
+                                  f"parameters' physical limits: the steepest path from box {box.index} ends at "
+                                  f"the limits at {best:.2f}")
+        crossing = points[-1]
+    if np.all(np.abs(crossing) <= 1 + INSIDE_TOL):  # no further than the box itself
+        crossing = points[-1]
+    centre = box.to_actual(crossing)
+    half0 = np.array([0.5 * (f.high - f.low) for f in campaign.factors])
+    half = np.minimum(half0, 0.5 * (limits[:, 1] - limits[:, 0]))
+    centre = np.clip(centre, limits[:, 0] + half, limits[:, 1] - half)
+    new = Box(box.index + 1, tuple(_clean(centre - half, limits)), tuple(_clean(centre + half, limits)),
+              reason=(f"move {moves + 1}: {response} target {target:g} outside box {box.index} "
+                      f"({lo:.2f} to {hi:.2f}); the steepest path crossed it near "
+                      + _show({f.parameter: _round(c, 3) for f, c in zip(campaign.factors, centre)})))
+    from demcal.campaign.runner import plan_design
+
+    plan = plan_design(new.campaign(campaign))
+    specs = [dataclasses.replace(s, label=f"box {new.index} {s.label}") for s in plan.specs]
+    before = {r.key for r in records() if r.status == "done"}
+    done, stopped = _spend(specs, f"{campaign.name} box {new.index} design", f"the design runs of box {new.index}",
+                           campaign, run, records, budget)
+    if stopped:
+        return stopped
+    history.append(Step(iteration, new.index, "design", len(specs),
+                        f"box {new.index}: " + _show({f.parameter: _round(c, 3) for f, c in zip(campaign.factors, centre)})
+                        + f" ± half-widths; {len(specs)} design runs ({len([s for s in specs if s.key in before])} "
+                          f"done before)"))
+    return new

@@ -1,0 +1,235 @@
+"""The closed calibration loop on a two-fidelity test double (``loop_testbench.py``):
+a known production response, a known bias of the cheap profile, known noise."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from demcal.campaign.calibrate import calibrate
+from demcal.campaign.config import parse_campaign
+from demcal.campaign.runner import run_campaign
+from demcal.campaign.store import Store
+from demcal.errors import ConfigError
+
+import loop_testbench
+from loop_testbench import BIAS, true_angle
+
+CAMPAIGN = """\
+[campaign]
+name = "loop test"
+
+[experiment]
+test = "test-fidelity"
+profile = "tiny"
+plugins = ["loop_testbench"]
+{settings}
+[[factors]]
+name = "A"
+parameter = "particle.restitution"
+low = 0.5
+high = 0.7
+{hard_a}
+[[factors]]
+name = "B"
+parameter = "particle.static_friction"
+low = 0.3
+high = 0.5
+{hard_b}
+[[factors]]
+name = "C"
+parameter = "particle.rolling_friction"
+low = 0.1
+high = 0.3
+{hard_c}
+[design]
+type = "box-behnken"
+center = 3
+
+[runs]
+seed = 11
+
+[model]
+order = "quadratic"
+
+[[conditions]]
+name = "inside"
+targets = {{ repose_angle_deg = {{ mean = 33.0, sd = 1.5 }} }}
+
+[[conditions]]
+name = "outside"
+targets = {{ repose_angle_deg = {{ mean = {outside}, sd = 1.5 }} }}
+
+[verification]
+replicates = 2
+
+[calibration]
+production = "quick"
+box_moves = 4
+{budget}
+[executor]
+workers = {workers}
+"""
+
+
+def write(folder: Path, outside: float = 45.0, hard: bool = False, budget: str = "", workers: int = 1,
+          sleep: float = 0.0) -> Path:
+    hard_lines = {"hard_a": "hard_high = 0.75\n", "hard_b": "hard_high = 0.6\n", "hard_c": "hard_high = 0.35\n"}
+    text = CAMPAIGN.format(outside=outside, budget=budget, workers=workers,
+                           settings=f'[experiment.settings]\n"test.sleep_s" = {sleep}\n' if sleep else "",
+                           **(hard_lines if hard else {k: "" for k in hard_lines}))
+    path = folder / "loop.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(autouse=True)
+def _double_on_path(monkeypatch):
+    here = str(Path(loop_testbench.__file__).parent)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join([here] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+
+
+@pytest.fixture(scope="module")
+def looped(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("loop")
+    path = write(folder)
+    campaign = parse_campaign(path.read_text(), path)
+    assert run_campaign(campaign, workers=1, progress=False).done == 15
+    return campaign, calibrate(campaign, workers=1, progress=False)
+
+
+def test_inside_target_verified_after_the_bias_is_learnt(looped):
+    campaign, cal = looped
+    result = cal.conditions[0]
+    assert result.loop.status == "verified", result.loop.reason
+    (verdict,) = result.verdicts
+    assert abs(verdict.simulated_mean - 33.0) <= 1.5
+    # the known answer: the production response at the chosen parameters
+    assert true_angle(*result.chosen.values()) == pytest.approx(33.0, abs=1.0)
+    # the first solve ignored the bias (production 3 deg high), the next learnt it
+    production = [s for s in result.loop.history if s.stage == "production"]
+    assert production[0].simulated == pytest.approx(33.0 + BIAS, abs=1.0)
+    assert result.loop.discrepancy["repose_angle_deg"].bias == pytest.approx(BIAS, abs=0.6)
+    assert [b.index for b in result.loop.boxes] == [0]
+
+
+def test_box_moves_to_a_target_outside_it(looped):
+    campaign, cal = looped
+    result = cal.conditions[1]
+    assert result.loop.status == "verified", result.loop.reason
+    assert len(result.loop.boxes) >= 2 and result.loop.box.index >= 1
+    stages = [s.stage for s in result.loop.history]
+    assert "path" in stages and "design" in stages and stages[-1] == "production"
+    # the chosen point lies outside the original box (mu there is at most 0.5)
+    assert result.chosen["particle.static_friction"] > 0.5
+    assert true_angle(*result.chosen.values()) == pytest.approx(45.0, abs=1.0)
+    (verdict,) = result.verdicts
+    assert abs(verdict.simulated_mean - 45.0) <= 1.5
+    assert "steepest path crossed it" in result.loop.boxes[1].reason
+    data = cal.to_dict()["conditions"][1]
+    assert data["status"] == "verified" and len(data["boxes"]) == len(result.loop.boxes)
+    assert data["production_profile"] == "quick" and data["cheap_profile"] == "tiny"
+
+
+def test_replay_runs_nothing_and_finds_the_same(looped, tmp_path, monkeypatch):
+    campaign, cal = looped
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    monkeypatch.setenv("DEMCAL_TEST_MARKERS", str(markers))
+    again = calibrate(campaign, workers=1, progress=False)
+    assert list(markers.iterdir()) == []
+    assert [c.chosen for c in again.conditions] == [c.chosen for c in cal.conditions]
+    report = calibrate(campaign, simulate=False, progress=False)
+    assert [c.loop.status for c in report.conditions] == ["verified", "verified"]
+
+
+def test_unreachable_within_hard_limits_stops_plainly(tmp_path):
+    path = write(tmp_path, hard=True)
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
+    result = cal.conditions[1]
+    assert result.loop.status == "out of reach"
+    assert "lies beyond what the test reaches within the parameters' physical limits" in result.loop.reason
+    # it never ran beyond the hard limits
+    with Store(campaign.store_path, readonly=True) as store:
+        for record in store.records():
+            assert record.parameters["particle.static_friction"] <= 0.6 + 1e-12
+            assert record.parameters["particle.rolling_friction"] <= 0.35 + 1e-12
+
+
+def test_budget_stops_plainly(tmp_path):
+    path = write(tmp_path, budget="[budget]\nruns = 20\n")
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
+    statuses = [c.loop.status for c in cal.conditions]
+    assert "budget spent" in statuses
+    reason = next(c.loop.reason for c in cal.conditions if c.loop.status == "budget spent")
+    assert reason.startswith("the budget of 20 runs is spent (")
+    with Store(campaign.store_path, readonly=True) as store:
+        assert len(store.records()) <= 20
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("production = \"quick\"", "production = \"paper\""),
+     "loop.toml line 49: 'production' = 'paper' is not known; choose one of: tiny, quick."),
+    (("box_moves = 4", "box_moves = 4\n[budget]\nruns = 0"), "loop.toml line 52: 'runs' must be at least 1, got 0."),
+    (("high = 0.5\n", "high = 0.5\nhard_high = 0.45\n"),
+     "loop.toml line 20: factor 'particle.static_friction' has hard_high 0.45, which excludes part of its "
+     "design box (0.3 to 0.5); hard limits must contain low and high."),
+])
+def test_bad_loop_settings_are_one_sentence(tmp_path, edit, message):
+    text = write(tmp_path).read_text()
+    assert edit[0] in text
+    text = text.replace(edit[0], edit[1], 1)
+    with pytest.raises(ConfigError) as info:
+        parse_campaign(text, tmp_path / "loop.toml")
+    assert str(info.value) == message
+
+
+def test_bad_production_profile_exits_2(tmp_path):
+    path = write(tmp_path)
+    path.write_text(path.read_text().replace('production = "quick"', 'production = "huge"'))
+    proc = subprocess.run([sys.executable, "-m", "demcal", "calibrate", str(path)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert "'production' = 'huge' is not known; choose one of: tiny, quick" in proc.stderr
+
+
+def test_sigkill_mid_loop_resumes_without_rerunning(tmp_path):
+    """Kill `demcal calibrate` while the loop runs; the resumed loop runs no finished run
+    again and ends where an uninterrupted one ends."""
+    path = write(tmp_path, sleep=0.05)
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    markers = tmp_path / "markers"
+    markers.mkdir()
+    env = dict(os.environ, DEMCAL_TEST_MARKERS=str(markers))
+    proc = subprocess.Popen([sys.executable, "-m", "demcal", "calibrate", str(path), "--quiet"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while len(list(markers.iterdir())) < 12 and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert proc.poll() is None, "the loop ended before it could be killed"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    with Store(campaign.store_path, readonly=True) as store:
+        finished = {r.key for r in store.records() if r.status == "done"}
+        tags = {f"{r.profile}-{r.seed}-" + "-".join(f"{r.parameters[p]:.4f}" for p in
+                (f.parameter for f in campaign.factors)) for r in store.records() if r.key in finished}
+    before = set(markers.iterdir())
+    resumed = calibrate(campaign, workers=1, progress=False)
+    again = {p.name.rsplit(".", 1)[0] for p in set(markers.iterdir()) - before}
+    assert not (again & tags), "a finished run ran again"
+    assert [c.loop.status for c in resumed.conditions] == ["verified", "verified"]
+    fresh = calibrate(campaign.with_workdir(tmp_path / "fresh"), workers=1, progress=False) \
+        if run_campaign(campaign.with_workdir(tmp_path / "fresh"), workers=1, progress=False).done else None
+    assert [c.chosen for c in resumed.conditions] == [c.chosen for c in fresh.conditions]
