@@ -28,6 +28,7 @@ COMMAND_MODULES = (
     "demcal.measure.commands",  # measure repose|incline
     "demcal.bench.commands",  # bench NAME
     "demcal.campaign.commands",  # run, calibrate, report, demo
+    "demcal.export.commands",  # export
 )
 
 

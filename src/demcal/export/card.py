@@ -1,0 +1,492 @@
+"""The material card: everything a calibration found, in one plain dict.
+
+:func:`build_card` is a pure function of a :class:`~demcal.campaign.config.Campaign` and
+the parsed ``calibration.json`` that ``demcal calibrate`` wrote into the campaign's work
+folder. It returns the card (layout below); :mod:`demcal.export.liggghts` and
+:mod:`demcal.export.edem` format it as input for those codes, and the JSON format is the
+card itself.
+
+Layout::
+
+    card, card_version, demcal_version
+    campaign        name, description, file, test, profile, hash (sha256:...), hash_of
+    models          contact, rolling: demcal's model names (contact.model, rolling.model)
+    codes           edem / liggghts: the contact and rolling model each code uses for these
+                    values, "transferable" (true when the values carry over without a new
+                    calibration) and the reasons when not, plus each code's own details
+    particle        shape, spheres (radius, centre [m], principal frame), centre_distance,
+                    volume, size_distribution
+    conditions[]    name, label,
+                    lab           sample (the lab record) and targets (mean, sd)
+                    parameters    KEY -> value, unit, source, description: the full parameter
+                                  set of the calibrated material (source: calibrated, fixed
+                                  by the campaign file, default of the virtual test, or
+                                  demcal default where the test has no such setting)
+                    materials     particle, steel, film -> density, shear_modulus,
+                                  poisson_ratio, youngs_modulus, yield_strength
+                    interactions  [{materials, restitution, static_friction,
+                                  rolling_friction, damping_factor, stiffness_factor}]
+                    verification  the verification figures of calibration.json, as written
+                    calibration   every other key of the condition in calibration.json, as written
+    calibration     every top-level key of calibration.json but its conditions, as written
+    calibration_file  path and sha256 of calibration.json
+    warnings        what the reader must know (e.g. a calibration of another campaign)
+
+The campaign hash
+-----------------
+:func:`campaign_hash` is the SHA-256 of the canonical JSON (sorted keys, floats to 12
+significant digits) of :func:`resolved_config`: every field of the campaign that decides
+what a calibration finds -- virtual test, profile, plug-ins, the *resolved* settings of
+the test (its defaults under that profile with the campaign's overrides, so a change of
+a demcal default changes the hash too), factors and their levels, design, responses,
+seeds and replicates, model, conditions and their targets, verification -- and none of
+what only names or places things (file path, work folder, executor, report title,
+descriptions, labels, photos, lab records beyond their targets, published reference
+values). Fields added to the campaign later are included by the same rule.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+from pathlib import Path
+from typing import Any, Mapping
+
+from demcal import __version__
+from demcal.errors import DataError
+
+CARD_VERSION = 1
+
+#: Campaign fields (at any depth) that name or place things and do not change a calibration.
+_NOT_HASHED = frozenset({"path", "workdir", "executor", "title", "description", "label", "photo",
+                         "reference_table", "reference", "unit", "units", "sample"})
+
+#: Settings that describe the calibrated material (the rest belong to the virtual test).
+MATERIAL_PREFIXES = ("particle.", "wall.", "film.", "contact.", "rolling.")
+PARTICLE_KEYS = ("particles.shape", "particles.scale_min", "particles.scale_max")
+
+#: Keys of a condition in calibration.json that the card reads; every other key is kept
+#: untouched under the condition's "calibration".
+_CONDITION_KEYS = ("name", "chosen", "verification")
+
+#: demcal contact model -> (EDEM model, transferable, reason when not).
+EDEM_CONTACT = {
+    "hertz_mindlin": ("Hertz-Mindlin (no slip)", True, ""),
+    "hysteretic_spring": ("Hysteretic Spring", True, ""),
+    "linear": ("Linear Spring", False,
+               "demcal's linear spring (k = 5 R* Y, viscous damping, k_t = xi k) is not known to "
+               "match the stiffness rule of EDEM's Linear Spring; recalibrate with "
+               "contact.model = hertz_mindlin or hysteretic_spring"),
+}
+
+#: What a reader of the EDEM tables should know although the values carry over.
+EDEM_NOTES = {
+    "hysteretic_spring": "the damping factor and stiffness factor follow demcal's reading of the "
+                         "paper's Eq. 3 (docs/dem.md: extra viscous normal damping 2 zeta |beta| "
+                         "sqrt(m* K), tangential spring k_t = xi K1), which EDEM describes only in words",
+}
+
+#: demcal rolling model -> (EDEM rolling friction model, transferable, reason when not).
+EDEM_ROLLING = {
+    "type_a": ("Standard Rolling Friction", True, ""),
+    "cdt": ("RVD Rolling Friction", False,
+            "demcal's cdt (LIGGGHTS' constant directional torque on w_i - w_j) is nearest to EDEM's "
+            "RVD Rolling Friction, which also uses R* but takes its direction from the contact's "
+            "tangential velocity; recalibrate with rolling.model = type_a for EDEM"),
+    "type_c": ("Type C Rolling Friction", True, ""),
+    "none": ("none", True, ""),
+}
+
+#: demcal contact model -> (LIGGGHTS 3.8 normal + tangential model, transferable, reason).
+LIGGGHTS_CONTACT = {
+    "hertz_mindlin": ("hertz tangential history", True, ""),
+    "hysteretic_spring": ("hertz tangential history", False,
+                          "LIGGGHTS 3.8 has no Walton-Braun Hysteretic Spring model (its "
+                          "hooke/hysteresis is another hysteretic spring: a Hooke stiffness from a "
+                          "characteristic velocity, an unloading stiffness that grows with the largest "
+                          "overlap, adhesion and a plasticity depth, besides viscous damping), so the "
+                          "values were calibrated with a model LIGGGHTS does not have; recalibrate with "
+                          "contact.model = hertz_mindlin"),
+    "linear": ("hertz tangential history", False,
+               "LIGGGHTS 3.8 has no linear spring on the yield strength (k = 5 R* Y); recalibrate "
+               "with contact.model = hertz_mindlin"),
+}
+
+#: demcal rolling model -> (LIGGGHTS 3.8 rolling_friction model, transferable, reason).
+LIGGGHTS_ROLLING = {
+    "type_a": ("cdt", False,
+               "demcal's type_a (EDEM's standard rolling friction: the particle's own angular "
+               "velocity and its contact-point distance R_i) is not LIGGGHTS' cdt, which uses the "
+               "relative angular velocity w_i - w_j and R* (half R_i for two equal spheres) between "
+               "particles (against a wall both take the particle's own angular velocity and about "
+               "its radius); recalibrate with rolling.model = cdt"),
+    "cdt": ("cdt", True, ""),
+    "type_c": ("epsd", False,
+               "LIGGGHTS' epsd is the same model C of Ai et al. (2011) but takes k_n as the secant "
+               "Hertz stiffness 4/3 E* sqrt(R* delta) where demcal takes the tangent one, "
+               "2 E* sqrt(R* delta), so its rolling spring is 2/3 as stiff (the torque limit "
+               "mu_r R* Fn is the same); recalibrate in LIGGGHTS or accept the stiffer spring"),
+    "none": (None, True, ""),
+}
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def calibration_path(campaign) -> Path:
+    """Where ``demcal calibrate`` writes its result for ``campaign``."""
+    return Path(campaign.workdir) / "calibration.json"
+
+
+def read_calibration(campaign) -> tuple[dict, Path, str]:
+    """The parsed calibration.json of ``campaign``, its path and its SHA-256.
+
+    Raises
+    ------
+    DataError
+        There is none yet, or it is not a JSON object: one sentence saying to run
+        ``demcal calibrate`` first.
+    """
+    path = calibration_path(campaign)
+    run = f"run `demcal calibrate {campaign.path}` first"
+    try:
+        blob = path.read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{campaign.path.name} has no calibration yet ({path} does not exist); "
+                        f"{run}.") from None
+    try:
+        data = json.loads(blob.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        reason = str(exc).split("\n")[0].rstrip(".")
+        raise DataError(f"{path} is not valid JSON ({reason}); run `demcal calibrate "
+                        f"{campaign.path}` again.") from None
+    if not isinstance(data, dict) or not isinstance(data.get("conditions"), list):
+        raise DataError(f"{path} holds no calibrated conditions; run `demcal calibrate "
+                        f"{campaign.path}` again.")
+    return data, path, hashlib.sha256(blob).hexdigest()
+
+
+# ------------------------------------------------------------------------ campaign hash
+
+
+def resolved_config(campaign) -> dict[str, Any]:
+    """What decides a calibration of ``campaign``, as plain JSON data (see the module
+    docstring): the campaign's fields less :data:`_NOT_HASHED`, with ``settings`` the
+    test's full resolved settings at the campaign's profile."""
+    from demcal.bench.registry import get_experiment, resolve_settings
+
+    out = _plain(campaign)
+    out["settings"] = _plain(resolve_settings(get_experiment(campaign.test), campaign.settings,
+                                              campaign.profile))
+    return out
+
+
+def campaign_hash(campaign) -> str:
+    """``sha256:<hex>`` of the canonical JSON of :func:`resolved_config`."""
+    blob = json.dumps(resolved_config(campaign), sort_keys=True, separators=(",", ":"))
+    return "sha256:" + hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as JSON data for the hash: dataclasses as dicts of their fields (less
+    :data:`_NOT_HASHED` and None), floats to 12 significant digits."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)
+                if f.name not in _NOT_HASHED and getattr(value, f.name) is not None}
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items() if k not in _NOT_HASHED}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
+        return value
+    if isinstance(value, float):
+        return float(f"{value:.12g}") if math.isfinite(value) else str(value)
+    if isinstance(value, Path):
+        return value.name
+    if hasattr(value, "tolist"):
+        return _plain(value.tolist())
+    return str(value)
+
+
+# ----------------------------------------------------------------------------- the card
+
+
+def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] | None = None,
+               calibration_file: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """The material card of ``campaign`` calibrated as ``calibration`` (calibration.json).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign, at the profile the calibration was made at.
+    calibration : mapping
+        The parsed calibration.json; each condition's ``chosen`` parameters and
+        ``verification`` list are read, every other key is kept as written.
+    conditions : list of str, optional
+        The conditions to export (default: every calibrated condition of the campaign).
+    calibration_file : mapping, optional
+        ``path`` and ``sha256`` of calibration.json, recorded in the card.
+
+    Raises
+    ------
+    ConfigError
+        A condition that the campaign does not have.
+    DataError
+        A condition that calibration.json does not hold, or holds without parameters.
+    """
+    from demcal._checks import and_list
+    from demcal.bench.registry import get_experiment
+    from demcal.errors import ConfigError
+    from demcal.export.text import or_list
+
+    known = [c.name for c in campaign.conditions]
+    calibrated = {c.get("name"): c for c in calibration.get("conditions", []) if isinstance(c, Mapping)}
+    again = f"run `demcal calibrate {campaign.path}`"
+    if conditions is None:
+        names = [n for n in known if n in calibrated]
+        if not names:
+            raise DataError(f"calibration.json holds none of the conditions of {campaign.path.name} "
+                            f"({and_list(repr(n) for n in known)}); {again} again.")
+    else:
+        for name in conditions:
+            if name not in known:
+                raise ConfigError(f"condition '{name}' is not in {campaign.path.name}; choose "
+                                  f"{or_list(repr(n) for n in known)}.")
+            if name not in calibrated:
+                raise DataError(f"condition '{name}' has no calibration yet; {again} first.")
+        names = list(dict.fromkeys(conditions))
+
+    experiment = get_experiment(campaign.test)
+    table = experiment.settings(campaign.profile)
+    warnings = _warnings(campaign, calibration)
+    cards = []
+    for name in names:
+        raw = calibrated[name]
+        chosen = raw.get("chosen")
+        if not isinstance(chosen, Mapping) or not chosen:
+            raise DataError(f"condition '{name}' has no chosen parameters in calibration.json; "
+                            f"{again} again.")
+        condition = next(c for c in campaign.conditions if c.name == name)
+        parameters = material_parameters(table, campaign.settings, chosen)
+        cards.append({
+            "name": name,
+            "label": condition.label,
+            "lab": _lab(condition),
+            "parameters": parameters,
+            "materials": materials(parameters),
+            "interactions": interactions(parameters),
+            "verification": _json_safe(raw.get("verification", [])),
+            "calibration": _json_safe({k: v for k, v in raw.items() if k not in _CONDITION_KEYS}),
+        })
+
+    first = cards[0]["parameters"]
+    contact = str(first["contact.model"]["value"])
+    rolling = str(first["rolling.model"]["value"])
+    codes = {"edem": _code(EDEM_CONTACT, EDEM_ROLLING, contact, rolling),
+             "liggghts": _code(LIGGGHTS_CONTACT, LIGGGHTS_ROLLING, contact, rolling)}
+    codes["edem"]["notes"] = [EDEM_NOTES[contact]] if contact in EDEM_NOTES else []
+    shape = particle(first)
+    codes["liggghts"].update(_liggghts_details(codes["liggghts"], cards[0], shape))
+    return {
+        "card": "demcal material card",
+        "card_version": CARD_VERSION,
+        "demcal_version": __version__,
+        "campaign": {
+            "name": campaign.name,
+            "description": campaign.description,
+            "file": str(campaign.path),
+            "test": campaign.test,
+            "profile": campaign.profile,
+            "hash": campaign_hash(campaign),
+            "hash_of": "the resolved campaign configuration (demcal.export.card.resolved_config)",
+        },
+        "models": {"contact": contact, "rolling": rolling},
+        "codes": codes,
+        "particle": shape,
+        "conditions": cards,
+        "calibration": _json_safe({k: v for k, v in calibration.items() if k != "conditions"}),
+        "calibration_file": dict(calibration_file or {}),
+        "warnings": warnings,
+    }
+
+
+def material_parameters(table: Mapping[str, Any], fixed: Mapping[str, Any],
+                        chosen: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """The full parameter set of the calibrated material, KEY -> value, unit, source,
+    description.
+
+    ``table`` is the virtual test's settings table (:class:`~demcal.bench.registry.Setting`
+    by key), ``fixed`` the campaign's setting overrides, ``chosen`` the calibrated values.
+    Keys of the material that the test has no setting for (a plug-in test) take demcal's
+    defaults (:func:`demcal.bench.common.material_settings`) with source ``demcal default``.
+    """
+    from demcal.bench.common import material_settings, particle_settings
+
+    defaults = {s.key: s for s in material_settings(film=False) + particle_settings("quick", 1)}
+    keys = [k for k in table if _is_material(k)]
+    keys += [k for k in defaults if _is_material(k) and k not in table]
+    keys += [k for k in chosen if k not in keys]
+    out = {}
+    for key in keys:
+        spec = table.get(key, defaults.get(key))
+        if key in chosen:
+            value, source = chosen[key], "calibrated"
+        elif key in fixed:
+            value, source = fixed[key], "fixed"
+        elif key in table:
+            value, source = table[key].default, "default"
+        else:
+            value, source = spec.default, "demcal default"
+        out[key] = {"value": _json_safe(value), "unit": spec.unit if spec else "-", "source": source,
+                    "description": spec.help if spec else ""}
+    return out
+
+
+def _is_material(key: str) -> bool:
+    return key.startswith(MATERIAL_PREFIXES) or key in PARTICLE_KEYS
+
+
+def _value(parameters: Mapping[str, Mapping[str, Any]], key: str, default=None):
+    entry = parameters.get(key)
+    return default if entry is None else entry["value"]
+
+
+def materials(parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per-material bulk properties (EDEM's material table): the particle, the steel of
+    the walls (:func:`demcal.particles.materials.steel`) and, where the test has one, the
+    film. Young's modulus ``E = 2 G (1 + nu)`` [Pa] is derived from the shear modulus G."""
+    from demcal.particles.materials import steel
+
+    out = {"particle": _material(*(_value(parameters, f"particle.{p}") for p in
+                                   ("density", "shear_modulus", "poisson_ratio", "yield_strength")))}
+    wall = steel()
+    out["steel"] = _material(wall.density, wall.shear_modulus, wall.poisson_ratio, wall.yield_strength)
+    if "film.density" in parameters:
+        out["film"] = _material(*(_value(parameters, f"film.{p}") for p in
+                                  ("density", "shear_modulus", "poisson_ratio", "yield_strength")))
+    return out
+
+
+def _material(density, shear_modulus, poisson_ratio, yield_strength) -> dict[str, float]:
+    g, nu = float(shear_modulus), float(poisson_ratio)
+    return {"density": float(density), "shear_modulus": g, "poisson_ratio": nu,
+            "youngs_modulus": float(f"{2.0 * g * (1.0 + nu):.12g}"),
+            "yield_strength": float(yield_strength)}
+
+
+def interactions(parameters: Mapping[str, Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Per-pair contact properties (EDEM's interaction table): particle-particle
+    (``particle.*``), particle-steel (``wall.*``) and particle-film (``film.*``); a pair
+    without its own stiffness factor takes the particle's, as the virtual tests do."""
+    from demcal.particles.materials import Interaction
+
+    xi = _value(parameters, "particle.stiffness_factor")
+    rolling_damping = Interaction().rolling_damping
+    out = []
+    for other, prefix in (("particle", "particle"), ("steel", "wall"), ("film", "film")):
+        if f"{prefix}.restitution" not in parameters:
+            continue
+        row = {"materials": ["particle", other]}
+        for prop in ("restitution", "static_friction", "rolling_friction", "damping_factor"):
+            row[prop] = _value(parameters, f"{prefix}.{prop}")
+        row["stiffness_factor"] = _value(parameters, f"{prefix}.stiffness_factor", xi)
+        row["rolling_damping"] = rolling_damping
+        row["source"] = sorted({parameters[f"{prefix}.{p}"]["source"] for p in
+                                ("restitution", "static_friction", "rolling_friction")})
+        out.append(row)
+    return out
+
+
+def particle(parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """The particle template (spheres in its principal frame, centre of mass at the
+    origin [m]) and the size distribution (a scale factor on the template)."""
+    from demcal.bench.common import template_for
+
+    shape = _value(parameters, "particles.shape", "two-sphere")
+    template = template_for({"particles.shape": shape})
+    spheres = [{"radius": float(r), "centre": [_nm(x) for x in c]}
+               for r, c in zip(template.radii, template.centers)]
+    out = {"shape": shape, "spheres": spheres,
+           "frame": "principal axes, centre of mass at the origin [m]",
+           "volume": float(f"{template.volume:.9g}")}
+    if len(spheres) == 2:
+        a, b = (s["centre"] for s in spheres)
+        out["centre_distance"] = _nm(math.dist(a, b))
+    low = float(_value(parameters, "particles.scale_min", 1.0))
+    high = float(_value(parameters, "particles.scale_max", 1.0))
+    out["size_distribution"] = {"kind": "uniform", "basis": "number", "scale_min": low,
+                                "scale_max": high,
+                                "meaning": "each particle is the template scaled by a factor drawn "
+                                           "uniformly in [scale_min, scale_max]"}
+    return out
+
+
+def _nm(x: float) -> float:
+    """A length [m] rounded to the nanometre (drops the template's 1e-22 m noise)."""
+    return round(float(x), 9) + 0.0
+
+
+def _code(contact_map, rolling_map, contact: str, rolling: str) -> dict[str, Any]:
+    c_name, c_ok, c_why = contact_map.get(contact, (None, False, f"no model for contact.model = {contact}"))
+    r_name, r_ok, r_why = rolling_map.get(rolling, (None, False, f"no model for rolling.model = {rolling}"))
+    return {"contact_model": c_name, "rolling_model": r_name, "transferable": bool(c_ok and r_ok),
+            "reasons": [why for ok, why in ((c_ok, c_why), (r_ok, r_why)) if not ok]}
+
+
+def _liggghts_details(code: Mapping[str, Any], condition: Mapping[str, Any],
+                      shape: Mapping[str, Any]) -> dict[str, Any]:
+    """What a LIGGGHTS script around the snippet refers to (:mod:`demcal.export.liggghts`)."""
+    from demcal.export import liggghts
+
+    rolling = f" rolling_friction {code['rolling_model']}" if code["rolling_model"] else ""
+    return {"version": "3.8",
+            "pair_style": f"gran model hertz tangential history{rolling}",
+            "atom_types": liggghts.atom_types(condition),
+            "distribution_template": liggghts.DISTRIBUTION_ID,
+            "integration": "multisphere" if len(shape["spheres"]) > 1 else "nve/sphere"}
+
+
+def _lab(condition) -> dict[str, Any]:
+    sample = condition.sample.to_dict() if condition.sample is not None else None
+    return {"sample": _json_safe(sample),
+            "targets": [{"response": t.response, "mean": t.mean, "sd": t.sd} for t in condition.targets]}
+
+
+def _warnings(campaign, calibration: Mapping[str, Any]) -> list[str]:
+    out = []
+    name = calibration.get("campaign")
+    if name is not None and name != campaign.name:
+        out.append(f"calibration.json names campaign '{name}', the campaign file '{campaign.name}'.")
+    stored = calibration.get("campaign_hash")
+    if isinstance(stored, str) and stored.split(":")[-1] != campaign_hash(campaign).split(":")[-1]:
+        out.append("the campaign file changed since the calibration (its hash differs); calibrate again.")
+    factors = {f.parameter for f in campaign.factors}
+    for raw in calibration.get("conditions", []):
+        chosen = raw.get("chosen") if isinstance(raw, Mapping) else None
+        extra = sorted(set(chosen or {}) - factors)
+        if extra:
+            out.append(f"condition '{raw.get('name')}' has calibrated values of {', '.join(extra)}, "
+                       "which are not factors of the campaign file.")
+    return out
+
+
+def _json_safe(value: Any) -> Any:
+    """Strict JSON data: NaN -> None, infinities -> "inf" / "-inf" (a sieve's open class)."""
+    if isinstance(value, float):
+        if math.isnan(value):
+            return None
+        return value if math.isfinite(value) else ("inf" if value > 0 else "-inf")
+    if isinstance(value, Mapping):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if hasattr(value, "tolist"):
+        return _json_safe(value.tolist())
+    return value
+
+
+def to_json(card: Mapping[str, Any]) -> str:
+    """The card as JSON text (strict: no NaN or Infinity), ending with a newline."""
+    return json.dumps(card, indent=2, ensure_ascii=False, allow_nan=False) + "\n"

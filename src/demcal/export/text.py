@@ -1,0 +1,79 @@
+"""Wording shared by the text formats of the material card (LIGGGHTS, EDEM)."""
+
+from __future__ import annotations
+
+import textwrap
+from typing import Any, Mapping
+
+
+def number(x, digits: int = 6) -> str:
+    """A number with up to ``digits`` significant digits, as LIGGGHTS and EDEM read it."""
+    try:
+        return f"{float(x):.{digits}g}"
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def or_list(words) -> str:
+    """``a``, ``a or b``, ``a, b or c``: the choices of a message."""
+    words = [str(w) for w in words]
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " or " + words[-1]
+
+
+def wrap(text: str, prefix: str, width: int = 88) -> list[str]:
+    """``text`` as comment lines of at most ``width`` characters starting with ``prefix``."""
+    return textwrap.wrap(text, width=width, initial_indent=prefix, subsequent_indent=prefix + "  ",
+                         break_on_hyphens=False)
+
+
+def lab_line(lab: Mapping[str, Any]) -> str:
+    """The lab record of a card condition in one line: sample, moisture, bulk density, targets."""
+    parts = []
+    sample = lab.get("sample")
+    if sample:
+        text = f"sample {sample['name']}"
+        if "moisture_percent" in sample:
+            sd = sample.get("moisture_sd_percent")
+            text += f", moisture {number(sample['moisture_percent'])}" + (f" ± {number(sd)}" if sd is not None else "") + " %"
+        if "bulk_density" in sample:
+            text += f", bulk density {number(sample['bulk_density'])} kg/m3"
+        parts.append(text)
+    for t in lab["targets"]:
+        sd = f" ± {number(t['sd'])}" if t.get("sd") is not None else ""
+        parts.append(f"lab {t['response']} {number(t['mean'])}{sd}")
+    return "; ".join(parts)
+
+
+def verification_lines(verification) -> list[str]:
+    """One line per verified response: target, prediction, simulated mean ± sd (n), error
+    and whether it lies inside the lab's sd."""
+    if not verification:
+        return ["verification: none yet"]
+    out = []
+    for v in verification:
+        if not isinstance(v, Mapping):
+            continue
+        sd = f" ± {number(v['lab_sd'])}" if v.get("lab_sd") is not None else ""
+        simulated = v.get("simulated") or []
+        if simulated and v.get("simulated_mean") is not None:
+            spread = f" ± {number(v['simulated_sd'], 3)}" if v.get("simulated_sd") is not None else ""
+            inside = {True: "inside", False: "outside"}.get(v.get("within_lab_sd"), "no lab sd for")
+            err = v.get("relative_error_percent")
+            result = (f"simulated {number(v['simulated_mean'], 4)}{spread} (n = {len(simulated)})"
+                      + (f", error {number(err, 3)} %" if err is not None else "") + f", {inside} the lab sd")
+        else:
+            result = "not simulated yet"
+        predicted = f", predicted {number(v['predicted'], 4)}" if v.get("predicted") is not None else ""
+        out.append(f"verification: {v.get('response')} target {number(v.get('target'))}{sd}{predicted}, {result}")
+    return out
+
+
+def calibrated_line(condition: Mapping[str, Any]) -> str:
+    """Which values of a card condition were calibrated, and where the others come from."""
+    params = condition["parameters"]
+    calibrated = [f"{k} = {number(v['value'])}" for k, v in params.items() if v["source"] == "calibrated"]
+    fixed = [k for k, v in params.items() if v["source"] == "fixed"]
+    text = f"calibrated: {', '.join(calibrated) or 'none'}"
+    if fixed:
+        text += f"; fixed by the campaign file: {', '.join(fixed)}"
+    return text + "; every other value is a default (the JSON card gives each value's source)."
