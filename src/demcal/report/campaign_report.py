@@ -358,6 +358,12 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
             steps.append({"condition": name, "iteration": step.iteration + 1, "box": step.box, "stage": step.stage,
                           "runs": step.runs, "predicted": step.predicted, "simulated": step.simulated,
                           "95 % half-width": step.half_width, "what happened": step.text})
+    spent = _runs_spent(cal)
+    if spent:
+        paper = {"repose": 29 + 6, "sliding": 17 + 6}.get(c.name)
+        report.paragraph("Simulations this campaign spent: " + ", ".join(f"{count} {what}" for what, count in spent)
+                         + f"; {sum(count for _, count in spent)} in all"
+                         + (f" (the paper: {paper} for this campaign, 58 for both)" if paper else "") + ".")
     report.table(pd.DataFrame(status).set_index("condition"), n("loop_status"),
                  caption="How each condition's loop ended, and the runs it spent beyond the campaign's design")
     report.table(pd.DataFrame(boxes).set_index("condition"), n("loop_boxes"),
@@ -366,6 +372,22 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
     if steps:
         report.table(pd.DataFrame(steps).set_index("condition"), n("loop_history"),
                      caption="Every step of the loop (predicted: the corrected model at the chosen parameters)")
+
+
+def _runs_spent(cal: Calibration) -> list[tuple[str, int]]:
+    """Finished runs in the store by kind and profile, e.g. ("29 design runs at quick")."""
+    from demcal.campaign.store import Store
+
+    if not cal.campaign.store_path.is_file():
+        return []
+    names = {"design": "design runs", "path": "path runs", "verification": "verification runs"}
+    counts: dict[tuple[str, str], int] = {}
+    with Store(cal.campaign.store_path, readonly=True) as store:
+        for r in store.records():
+            if r.status == "done" and r.test == cal.campaign.test:
+                counts[(r.kind, r.profile)] = counts.get((r.kind, r.profile), 0) + 1
+    return [(f"{names.get(kind, kind + ' runs')} at {profile}", count)
+            for (kind, profile), count in sorted(counts.items())]
 
 
 def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
