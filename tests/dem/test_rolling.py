@@ -8,12 +8,14 @@ Closed forms:
   a = -(5/7) mu_r g (energy balance as in Ai et al. 2011, Powder Technol. 206, 269,
   section 3.1, their Eq. 20 for model A with I = 2/5 m R^2).
 * The same holds for the relative-velocity model (cdt) against a fixed floor (R* = R).
-* Relative-velocity model (cdt, LIGGGHTS ``rolling_friction cdt``; Ai et al. 2011 model
-  A with the relative angular velocity): between two spheres the torque is
-  tau_i = -mu_r Fn R* w_r/|w_r| with w_r = w_i - w_j and R* = R_i R_j/(R_i + R_j), and
-  tau_j = -tau_i. Two equal spheres stacked on a frictionless floor, counter-rotating
-  about a horizontal axis (w_i = -w_j, pure rolling at their contact, so no tangential
-  force) with Fn = m g (the weight of the top one) and R* = R/2 each spin down at
+* Relative-velocity model (cdt, LIGGGHTS 3.8.0 ``rolling_friction cdt``; Ai et al. 2011
+  model A with the relative angular velocity): between two spheres the torque is
+  tau_i = -mu_r k_n delta R* w_t/|w_r| with w_r = w_i - w_j, w_t its part normal to the
+  contact normal, k_n delta the elastic normal force and R* = R_i R_j/(R_i + R_j), and
+  tau_j = -tau_i (test_rolling_torque.py checks each term on one contact). Two equal
+  spheres stacked on a frictionless floor, counter-rotating about a horizontal axis
+  (w_i = -w_j, pure rolling at their contact, so no tangential force and w_t = w_r) with
+  k_n delta = Fn = m g at rest (the weight of the top one) and R* = R/2 each spin down at
   |dw/dt| = mu_r m g (R/2) / (2/5 m R^2) = (5/4) mu_r g / R. Type A uses each body's
   own lever (about R) instead, twice the torque.
 * Type C (elastic-plastic spring-dashpot, Ai et al. 2011 model C) holds a sphere at rest

@@ -12,7 +12,7 @@ impact_speed=2.0, skin=None, domain=None, threads=None)``
   (insertion at a rate). Refused with one sentence: non-finite numbers, arrays of the
   wrong shape, particles outside ``domain`` or larger than a ``Box`` they are placed in,
   and particles overlapping another by more than ``Simulation.overlap_tolerance``
-  (10 %) of the smaller sphere radius (a settled bed's few per cent pass).
+  (25 %) of the smaller sphere radius (a settled bed's few per cent pass).
 * ``sim.remove_particles(mask_or_indices)``
 * ``sim.run(duration=None, steps=None, reporters=[...])``: ``steps`` a whole number;
   a run by ``duration`` ends at that time even when particles added during the run
@@ -28,10 +28,14 @@ impact_speed=2.0, skin=None, domain=None, threads=None)``
 Contact models (``contact_model``): ``"hertz_mindlin"`` (EDEM Hertz-Mindlin no slip),
 ``"hysteretic_spring"`` (EDEM HSCM, the paper's Eq. 1-3), ``"linear"``; or a
 :class:`ContactModel` naming one sub-model per slot. Rolling models
-(``rolling_model``): ``"none"``, ``"type_a"`` (EDEM constant directional torque, the
-default), ``"cdt"`` (relative velocity, LIGGGHTS), ``"type_c"`` (elastic-plastic
-spring-dashpot, Ai et al. 2011). A ``ContactModel`` carries its own ``rolling``; a
-``rolling_model`` that differs from it is refused (name the rolling model once). Equations and sources are in :mod:`demcal.dem.contact`.
+(``rolling_model``): ``"none"``, ``"type_a"`` (EDEM standard rolling friction, constant
+directional torque on each body's own spin; the default), ``"cdt"`` (LIGGGHTS-PUBLIC
+3.8.0 ``rolling_friction cdt``: the elastic normal force k_n delta, the relative spin
+without its twisting part, lever R* and R against a wall), ``"type_c"``
+(elastic-plastic spring-dashpot, Ai et al. 2011 model C). A ``ContactModel`` carries
+its own ``rolling``; a ``rolling_model`` that differs from it is refused (name the
+rolling model once). Equations and sources are in :mod:`demcal.dem.contact` and
+docs/dem.md.
 
 Reporters (:mod:`demcal.dem.reporters`): ``ProgressReporter``, ``EnergyReporter``,
 ``BlowUpDetector``, ``VTKReporter``, ``CheckpointReporter``, ``Callback``.

@@ -34,7 +34,8 @@ from demcal.geometry.kernels import wall_distance
 
 from .contact.kernel import HIST_WIDTH, contact, reset_history, store_history
 from .contact.llvm_math import sqrt
-from .contact.registry import LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD
+from .contact.registry import (LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD,
+                               ROLLING_RELATIVE)
 
 ACC_WIDTH = 6        # sacc columns: force on the sphere (3), torque on its body (3)
 PAIR_OUT_WIDTH = 3   # pair_out columns: force on i
@@ -269,10 +270,19 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 rolling, aix, aiy, aiz, ajx, ajy, ajz, bvel[bi, 0], bvel[bi, 1], bvel[bi, 2],
                 wix, wiy, wiz, mi, biso[bi], wvel[w, 0], wvel[w, 1], wvel[w, 2],
                 womega[w, 0], womega[w, 1], womega[w, 2], 0.0, 0.0)
+            # the wall's spin as the rolling model sees it: none for cdt, which takes
+            # the particle's own angular velocity against a wall (as LIGGGHTS does)
+            wwx = womega[w, 0]
+            wwy = womega[w, 1]
+            wwz = womega[w, 2]
+            if rolling == ROLLING_RELATIVE:
+                wwx = 0.0
+                wwy = 0.0
+                wwz = 0.0
             fx, fy, fz, tix, tiy, tiz, _, _, _, h0, h1, h2, h3, h4, h5, h6 = contact(
                 normal, damping, tangential, rolling, table, bmat[bi], wmat[w], whist, q,
-                delta, nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, womega[w, 0],
-                womega[w, 1], womega[w, 2], li, 0.0, ri, mi, inv_ir, dt)
+                delta, nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wwx, wwy, wwz, li, 0.0, ri,
+                mi, inv_ir, dt)
             store_history(whist, q, h0, h1, h2, h3, h4, h5, h6)
             wactive[q] = True
             sacc[i, 0] += fx

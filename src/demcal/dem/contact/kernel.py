@@ -12,7 +12,7 @@ from demcal.particles.materials import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR,
 
 from .damping import normal_damping
 from .llvm_math import sqrt
-from .normal import loading_stiffness, normal_force
+from .normal import loading_stiffness, normal_force, secant_force
 from .registry import FASTMATH, NORMAL_HERTZ, NORMAL_HYSTERETIC, TANGENTIAL_MINDLIN
 from .rolling import rolling_torque
 from .tangential import tangential_force, tangential_stiffness
@@ -59,9 +59,10 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     delta : float
         Overlap [m] > 0. ``n`` is the unit normal pointing from j to i.
     vr : relative velocity of i with respect to j at the contact point [m/s].
-    wi, wj : angular velocities [rad/s]. lever_i, lever_j: centre of mass to contact
-        point distances [m]. r_eff, m_eff: R* [m], m* [kg]. inv_ir: inverse rolling
-        inertia 1/I_r [1/(kg m2)] (Ai et al. 2011 Eq. 15).
+    wi, wj : angular velocities [rad/s] (``wj`` of a wall: what its rolling model sees,
+        see ``forces.wall_forces``). lever_i, lever_j: centre of mass to contact
+        point distances [m]. r_eff, m_eff: R* [m], m* [kg] (R_i and m_i against a wall).
+        inv_ir: inverse rolling inertia 1/I_r [1/(kg m2)] (Ai et al. 2011 Eq. 15).
 
     Returns
     -------
@@ -103,9 +104,10 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
                                                  hist[h, 2], nx, ny, nz, vtx, vty, vtz,
                                                  dt, mu_s, fn)
     fpos = fn if fn > 0.0 else 0.0
+    fe = secant_force(normal, delta, fs, k1)
     kr = k if k > 0.0 else k1
     tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz = rolling_torque(
         rolling, hist[h, 4], hist[h, 5], hist[h, 6], nx, ny, nz, wix, wiy, wiz, wjx, wjy,
-        wjz, lever_i, lever_j, r_eff, mu_r, fpos, kr, eta_r, inv_ir, dt)
+        wjz, lever_i, lever_j, r_eff, mu_r, fpos, fe, kr, eta_r, inv_ir, dt)
     return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz,
             sx, sy, sz, d0, mx, my, mz)

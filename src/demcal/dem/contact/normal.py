@@ -70,3 +70,21 @@ def normal_force(model, delta, delta0, r_eff, sq, estar, ymin, e):
 def loading_stiffness(r_eff, ymin):
     """K1 = 5 R* min(Y_i, Y_j) [N/m] (Walton 2006, EDEM HSCM)."""
     return 5.0 * r_eff * ymin
+
+
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
+def secant_force(model, delta, fn, k1):
+    """``k_n delta`` [N], the elastic normal force LIGGGHTS' rolling model ``cdt`` takes
+    (``sidata.kn * sidata.deltan`` in ``rolling_model_cdt.h``, LIGGGHTS-PUBLIC 3.8.0).
+
+    ``k_n`` is the stiffness the normal model hands on: for Hertz LIGGGHTS' ``kn =
+    4/3 E* sqrt(R* delta)``, so ``k_n delta`` is the Hertz spring force ``fn``; for the
+    linear spring ``k delta = fn``. LIGGGHTS 3.8 has no Walton-Braun Hysteretic Spring;
+    its own hysteretic model (``hooke/hysteresis``, a different one: see docs/export.md)
+    hands its loading stiffness on as ``k_n``, and we do the same: ``K1 delta`` (= ``fn``
+    while loading, larger while unloading). A judgement, since no LIGGGHTS model is ours.
+    """
+    fe = fn
+    if model == NORMAL_HYSTERETIC:
+        fe = k1 * delta
+    return fe

@@ -37,7 +37,7 @@ TANGENTIAL_LINEAR = 2    # kt = xi K1, paper Eq. 3
 # rolling slot
 ROLLING_NONE = 0
 ROLLING_CONSTANT = 1     # EDEM type A: -mu_r Fn R_i w_i/|w_i|
-ROLLING_RELATIVE = 2     # LIGGGHTS cdt: -mu_r Fn R* w_rel/|w_rel|
+ROLLING_RELATIVE = 2     # LIGGGHTS 3.8 cdt: -mu_r k_n delta R* w_t/|w_r|
 ROLLING_EPSD = 3         # EDEM type C, Ai et al. 2011
 
 NORMAL = {"hertz": NORMAL_HERTZ, "hysteretic": NORMAL_HYSTERETIC, "linear": NORMAL_LINEAR}

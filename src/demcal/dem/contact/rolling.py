@@ -1,17 +1,35 @@
 """Rolling-resistance sub-models. Each returns the torques on i and on j [N m].
 
-* ``type_a`` / ``constant`` (EDEM standard rolling friction, Sakaguchi et al. 1993):
+``n`` is the unit contact normal (from j to i), ``w_r = w_i - w_j`` the relative angular
+velocity and ``w_t = w_r - (w_r . n) n`` its part in the tangent plane (``w_j`` is 0
+against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
+
+* ``type_a`` / ``constant`` (EDEM standard rolling friction, after Sakaguchi, Ozaki &
+  Igarashi 1993; EDEM Creator help, "Standard Rolling Friction Model"):
   ``tau_i = -mu_r Fn R_i w_i/|w_i|`` with R_i the distance from i's centre of mass to
-  the contact point and w_i i's own angular velocity; likewise for j.
-* ``cdt`` / ``relative`` (LIGGGHTS ``rolling_friction cdt``):
-  ``tau_i = -mu_r Fn R* w_r/|w_r|`` with ``w_r = w_i - w_j``; ``tau_j = -tau_i``.
+  the contact point (the middle of the overlap) and w_i i's own angular velocity, the
+  twisting component included; likewise for j (nothing on a wall). ``Fn`` is the total
+  normal force (spring + damping) clipped at 0: EDEM's page does not say which normal
+  force it takes (see docs/dem.md).
+* ``cdt`` / ``relative`` (LIGGGHTS-PUBLIC 3.8.0 ``rolling_model_cdt.h``, default
+  ``torsionTorque off``):
+  ``tau_i = -mu_r (k_n delta) R* w_t/|w_r|``, ``tau_j = -tau_i``. Three points fix it:
+  the force is the elastic part ``k_n delta`` alone (``fe`` below, see
+  ``normal.secant_force``: no damping, not clipped, so a separating contact keeps its
+  torque); the torque is formed along the
+  full ``w_r`` and its normal (twisting) component removed afterwards, so its size is
+  ``mu_r k_n delta R* |w_t|/|w_r|`` (LIGGGHTS' documentation writes ``w_t/|w_t|``; its
+  source, which the LIGGGHTS binary runs, divides by ``|w_r|``); the lever is R* for
+  a pair and the sphere radius R against a wall (3.8.0 takes ``reff = radi`` there;
+  older 3.x releases took the contact radius R - delta/2), with the
+  particle's own angular velocity (LIGGGHTS' walls bring no rotation into the rolling
+  model).
 * ``type_c`` / ``epsd`` (elastic-plastic spring-dashpot, Ai, Chen, Rotter & Ooi 2011,
-  Powder Technol. 206, 269-282, their model C): rolling stiffness
-  ``k_r = 2.25 k_n mu_r^2 R*^2`` (their Eq. 13), spring torque incremented by
-  ``-k_r w_r dt`` and capped at ``M_m = mu_r R* Fn`` (Eq. 12), viscous torque
-  ``-C_r w_r`` with ``C_r = 2 eta_r sqrt(I_r k_r)`` (Eq. 14-15) while the spring is
-  below the cap (none once fully mobilised). ``w_r`` is the relative angular velocity
-  projected on the tangent plane (twisting excluded); the spring torque is kept in the
+  Powder Technol. 206, 269-282, their model C; EDEM "Type C Rolling Friction"): rolling
+  stiffness ``k_r = 2.25 k_n mu_r^2 R*^2`` (their Eq. 13), spring torque incremented by
+  ``-k_r w_t dt`` and capped at ``M_m = mu_r R* Fn`` (Eq. 12, Fn as for type A),
+  viscous torque ``-C_r w_t`` with ``C_r = 2 eta_r sqrt(I_r k_r)`` (Eq. 14-15) while the
+  spring is below the cap (none once fully mobilised). The spring torque is kept in the
   tangent plane (by the caller, ``hist[h, 4:7]``).
 """
 
@@ -24,9 +42,13 @@ from .registry import FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_RELATIVE
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
-                   lever_i, lever_j, r_eff, mu_r, fn, kn, eta_r, inv_ir, dt):
+                   lever_i, lever_j, r_eff, mu_r, fn, fe, kn, eta_r, inv_ir, dt):
     """Rolling torques on i and j and the new EPSD spring torque, given the stored one
-    ``m``: ``(tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz)``."""
+    ``m``: ``(tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz)``.
+
+    ``fn`` is the normal force clipped at 0 [N], ``fe`` the elastic ``k_n delta`` of the
+    normal slot [N] (``normal.secant_force``), ``kn`` its tangent stiffness [N/m];
+    ``r_eff`` is R* for a pair and the sphere radius against a wall [m]."""
     # one exit (no early return), so that loops over contacts can be vectorised
     tix = 0.0
     tiy = 0.0
@@ -34,7 +56,27 @@ def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
     tjx = 0.0
     tjy = 0.0
     tjz = 0.0
-    if fn <= 0.0 or mu_r <= 0.0:
+    if mu_r <= 0.0:
+        pass
+    elif model == ROLLING_RELATIVE:
+        wrx = wix - wjx
+        wry = wiy - wjy
+        wrz = wiz - wjz
+        wr = sqrt(wrx * wrx + wry * wry + wrz * wrz)
+        if not wr <= 0.0:
+            # along w_r scaled by 1/|w_r|, then the twisting component dropped
+            a = -mu_r * fe * r_eff / wr
+            tix = a * wrx
+            tiy = a * wry
+            tiz = a * wrz
+            tn = tix * nx + tiy * ny + tiz * nz
+            tix -= tn * nx
+            tiy -= tn * ny
+            tiz -= tn * nz
+            tjx = -tix
+            tjy = -tiy
+            tjz = -tiz
+    elif fn <= 0.0:
         pass
     elif model == ROLLING_CONSTANT:
         wi = sqrt(wix * wix + wiy * wiy + wiz * wiz)
@@ -49,19 +91,6 @@ def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
             tjx = b * wjx
             tjy = b * wjy
             tjz = b * wjz
-    elif model == ROLLING_RELATIVE:
-        wrx = wix - wjx
-        wry = wiy - wjy
-        wrz = wiz - wjz
-        wr = sqrt(wrx * wrx + wry * wry + wrz * wrz)
-        if not wr <= 0.0:
-            a = -mu_r * fn * r_eff / wr
-            tix = a * wrx
-            tiy = a * wry
-            tiz = a * wrz
-            tjx = -tix
-            tjy = -tiy
-            tjz = -tiz
     elif model == ROLLING_EPSD:
         # tangential part of the relative angular velocity (no twisting)
         wrx = wix - wjx
