@@ -8,6 +8,7 @@ the real virtual experiments are covered by the slow tests.
 from __future__ import annotations
 
 import os
+from collections import Counter
 import sys
 from pathlib import Path
 
@@ -77,6 +78,19 @@ def _plugin_on_path(monkeypatch):
     """Subprocesses (pool workers, `demcal run`) must import the test double too."""
     parts = [str(HERE)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(parts))
+
+
+@pytest.fixture
+def markers(tmp_path, monkeypatch):
+    """Each execution of the test double drops a file here, named by its seed."""
+    folder = tmp_path / "markers"
+    folder.mkdir()
+    monkeypatch.setenv("DEMCAL_TEST_MARKERS", str(folder))
+
+    def count() -> Counter:
+        return Counter(int(p.name.split("-", 1)[0]) for p in folder.iterdir())
+
+    return count
 
 
 @pytest.fixture

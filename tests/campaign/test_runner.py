@@ -7,7 +7,6 @@ import signal
 import subprocess
 import sys
 import time
-from collections import Counter
 from pathlib import Path
 
 import pytest
@@ -17,19 +16,6 @@ from demcal.campaign.runner import design_results, plan_design, run_campaign
 from demcal.campaign.store import Store
 
 from conftest import local_and_dask_results
-
-
-@pytest.fixture
-def markers(tmp_path, monkeypatch):
-    """Each execution of the test double drops a file here, named by its seed."""
-    folder = tmp_path / "markers"
-    folder.mkdir()
-    monkeypatch.setenv("DEMCAL_TEST_MARKERS", str(folder))
-
-    def count() -> Counter:
-        return Counter(int(p.name.split("-", 1)[0]) for p in folder.iterdir())
-
-    return count
 
 
 def test_plan_is_the_papers_design(campaign_file):

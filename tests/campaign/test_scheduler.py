@@ -192,3 +192,26 @@ def test_a_real_scheduler_passes_the_probe_and_runs_the_campaign(campaign_file):
         summary = run_campaign(campaign, scheduler=cluster.scheduler_address, workers=7, progress=False)
     assert (summary.done, summary.failed) == (29, 0)
     assert "(2 worker threads)" in summary.executor  # --workers is ignored on a cluster
+
+
+def test_local_dask_cluster_listens_on_loopback_only(campaign_file):
+    """Issue 20: with ``[executor] kind = "dask"`` an HTTP port on 0.0.0.0 answered
+    /health, /info/main/workers.html and a logs page although the dashboard was off."""
+    import ipaddress
+
+    import psutil
+
+    from demcal.campaign.executors import DaskExecutor
+
+    executor = DaskExecutor(None, workers=2, plugins=load_campaign(campaign_file()).plugins)
+    try:
+        me = psutil.Process()
+        listening = [(process.pid, conn.laddr) for process in [me, *me.children(recursive=True)]
+                     for conn in process.net_connections(kind="inet") if conn.status == psutil.CONN_LISTEN]
+    finally:
+        executor.close()
+    # scheduler, its HTTP server, and per worker: worker, its HTTP server, nanny
+    assert len(listening) >= 7, listening
+    outside = [(pid, addr) for pid, addr in listening
+               if ipaddress.ip_address(addr.ip) not in ipaddress.ip_network("127.0.0.0/8")]
+    assert not outside, outside

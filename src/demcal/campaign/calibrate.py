@@ -239,6 +239,8 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     store_path = campaign.store_path
     production_profile(campaign)  # a production profile that does not suit the campaign: one sentence first
     if not store_path.is_file():
+        if store_path.exists():  # a folder in its place: the store's own sentence
+            Store(store_path, readonly=True).close()
         raise DataError(f"{campaign.path.name} has no results yet; run `demcal run {campaign.path}` first.")
     with Store(store_path, readonly=True) as store:
         table = design_results(campaign, store)

@@ -2,23 +2,29 @@
 
 A run is a pure function of (virtual test, profile, settings, seed): :func:`simulate`
 calls the registered experiment and returns ``RunResult.to_dict()``. :func:`execute`
-wraps it for the runner -- artifacts into a temporary folder renamed into place,
-the resolved configuration saved next to them, errors caught as text -- and both
-executors just map :func:`execute`:
+wraps it for the runner -- artifacts into a temporary folder (the runner moves it into
+place in the transaction that records the run), the resolved configuration saved next
+to them, errors caught as text -- and both executors just map :func:`execute`:
 
-* :class:`LocalExecutor`: a ``concurrent.futures.ProcessPoolExecutor`` (spawn or
-  forkserver) with one worker per core by default; workers die with the runner;
+* :class:`LocalExecutor`: worker processes (spawn or forkserver) of its own, one per
+  core by default, each running one task at a time; workers die with the runner. A
+  worker that dies (killed, out of memory, a crash) costs only its own run: it is
+  replaced and that run is tried once more, and a second death is the run's failure;
 * :class:`DaskExecutor`: a ``dask.distributed`` client, connected to a scheduler
-  address (``tcp://host:8786``) or to a ``LocalCluster`` it starts. Remote workers
-  must see the campaign's work folder at the same path (a shared file system).
+  address (``tcp://host:8786``) or to a ``LocalCluster`` it starts, every port of
+  which listens on 127.0.0.1 only. Remote workers must see the campaign's work folder
+  at the same path (a shared file system).
 """
 
 from __future__ import annotations
 
-import concurrent.futures
+import collections
+import errno
 import importlib
 import multiprocessing
+import multiprocessing.connection
 import os
+import shutil
 import signal
 import socket
 import sys
@@ -74,46 +80,99 @@ def execute(task: Mapping[str, Any]) -> dict[str, Any]:
     """Run one task of the runner; never raises for a failed simulation.
 
     ``task`` holds ``test, profile, settings, seed, plugins, runs_dir, name`` and
-    optionally ``threads`` (numba threads for this run). The artifacts of the run
-    (and ``run.json`` with the resolved configuration, ``result.json`` or
-    ``error.txt``) end up in ``runs_dir/name``, moved there in one rename.
+    optionally ``tmp`` (the temporary folder's name, chosen by the runner so that it
+    can clean up after a worker it had to stop) and ``threads`` (numba threads for
+    this run). The artifacts of the run (and ``run.json`` with the resolved
+    configuration, ``result.json`` or ``error.txt``) are left in ``runs_dir/tmp``;
+    the runner moves that folder to ``runs_dir/name`` when it records the run.
 
-    Returns ``{"ok": True, "result": {...}, "artifacts_dir": name, "engine_version": ...}``
-    or ``{"ok": False, "error": "one sentence", "traceback": "...", ...}``.
+    Returns ``{"ok": True, "result": {...}, "artifacts_dir": name, "tmp_dir": tmp, ...}``
+    or ``{"ok": False, "error": "one sentence", "traceback": "...", ...}``; a fault of
+    the machine rather than of the run (a full disk, a read-only folder) adds
+    ``"fatal": "one sentence"`` and leaves no folder behind.
     """
     from demcal.bench.registry import get_experiment, resolve_settings
-    from demcal.campaign.store import finite_responses, publish_dir, temp_dir, write_json_atomic
+    from demcal.campaign.store import finite_responses, store_error, temp_name, write_json_atomic
 
     start = time.perf_counter()
     runs_dir = Path(task["runs_dir"])
     name = task["name"]
-    tmp = temp_dir(runs_dir, name)
-    outcome: dict[str, Any] = {"artifacts_dir": name, "host": socket.gethostname(), "pid": os.getpid()}
+    tmp_name = task.get("tmp") or temp_name(name)
+    tmp = runs_dir / tmp_name
+    outcome: dict[str, Any] = {"artifacts_dir": name, "tmp_dir": tmp_name, "host": socket.gethostname(),
+                               "pid": os.getpid()}
     try:
-        import_plugins(task.get("plugins", ()))
-        experiment = get_experiment(task["test"])
-        _limit_threads(task.get("threads"))
-        resolved = resolve_settings(experiment, task["settings"], task["profile"])
-        write_json_atomic(tmp / "run.json", {
-            "test": task["test"], "profile": task["profile"], "seed": task["seed"],
-            "overrides": dict(task["settings"]), "settings": resolved, "label": task.get("label", ""),
-        })
-        result = simulate(task["test"], task["profile"], task["settings"], task["seed"], tmp)
-        bad = finite_responses(result.get("responses", {}))
-        if bad is not None:
-            raise _RunFailed(f"response '{bad}' is not a finite number ({result['responses'].get(bad)!r})")
-        result["artifacts"] = {key: _relative(value, tmp) for key, value in result.get("artifacts", {}).items()}
-        write_json_atomic(tmp / "result.json", result)
-        outcome.update(ok=True, result=result)
-    except Exception as exc:  # a failed run is data, not a crash of the runner
-        message = str(exc) if isinstance(exc, (DemcalError, _RunFailed)) else f"{type(exc).__name__}: {exc}"
-        outcome.update(ok=False, error=message.strip() or type(exc).__name__,
-                       traceback=traceback.format_exc())
-        (tmp / "error.txt").write_text(outcome["traceback"])
+        try:
+            if tmp.exists():  # left by this claim's earlier attempt, on a worker that died
+                shutil.rmtree(tmp)
+            tmp.mkdir(parents=True)
+            import_plugins(task.get("plugins", ()))
+            experiment = get_experiment(task["test"])
+            _limit_threads(task.get("threads"))
+            resolved = resolve_settings(experiment, task["settings"], task["profile"])
+            write_json_atomic(tmp / "run.json", {
+                "test": task["test"], "profile": task["profile"], "seed": task["seed"],
+                "overrides": dict(task["settings"]), "settings": resolved, "label": task.get("label", ""),
+            })
+            result = simulate(task["test"], task["profile"], task["settings"], task["seed"], tmp)
+            bad = finite_responses(result.get("responses", {}))
+            if bad is not None:
+                raise _RunFailed(f"response '{bad}' is not a finite number ({result['responses'].get(bad)!r})")
+            result["artifacts"] = {key: _relative(value, tmp) for key, value in result.get("artifacts", {}).items()}
+            write_json_atomic(tmp / "result.json", result)
+            outcome.update(ok=True, result=result)
+        except Exception as exc:  # a failed run is data, not a crash of the runner
+            if _machine_fault(exc, runs_dir) is not None:
+                raise
+            message = str(exc) if isinstance(exc, (DemcalError, _RunFailed)) else f"{type(exc).__name__}: {exc}"
+            outcome.update(ok=False, error=message.strip() or type(exc).__name__,
+                           traceback=traceback.format_exc())
+            (tmp / "error.txt").write_text(outcome["traceback"])
+    except Exception as exc:
+        fault = _machine_fault(exc, runs_dir)
+        if fault is None:
+            raise
+        shutil.rmtree(tmp, ignore_errors=True)  # no folder of 0-byte files
+        where = Path(os.fsdecode(fault.filename)) if fault.filename is not None else runs_dir
+        if _inside(where, runs_dir):
+            sentence = str(store_error(fault, runs_dir, "the run folders"))
+        else:  # the experiment's own scratch file elsewhere
+            sentence = str(store_error(fault, where, "the file"))
+        outcome.update(ok=False, fatal=sentence, error=sentence, traceback=traceback.format_exc())
     outcome["engine_version"] = engine_version()
     outcome["wall_s"] = time.perf_counter() - start
-    publish_dir(tmp, runs_dir / name)
     return outcome
+
+
+#: File-system errors that are the machine's fault, not the run's: the campaign stops.
+_MACHINE_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS)
+
+
+def _machine_fault(exc: BaseException, runs_dir: Path) -> OSError | None:
+    """The full disk or read-only folder behind ``exc`` (or its causes), if any.
+
+    No permission counts too when it concerns the run folders themselves.
+    """
+    seen = exc
+    for _ in range(10):
+        if seen is None:
+            break
+        if isinstance(seen, OSError):
+            if seen.errno in _MACHINE_ERRNOS:
+                return seen
+            if (seen.errno in (errno.EACCES, errno.EPERM) and seen.filename is not None
+                    and _inside(Path(os.fsdecode(seen.filename)), runs_dir)):
+                return seen
+        seen = seen.__cause__ or seen.__context__
+    return None
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    try:
+        path.resolve().relative_to(folder.resolve())
+    except (ValueError, OSError):
+        return False
+    return True
 
 
 class _RunFailed(Exception):
@@ -154,8 +213,89 @@ def _init_local_worker(parent_pid: int, threads: int, plugins: Sequence[str]) ->
     import_plugins(plugins)
 
 
+def _local_worker(conn, parent_pid: int, threads: int, plugins: Sequence[str]) -> None:
+    """A worker process of :class:`LocalExecutor`: receive a task, send its outcome, repeat."""
+    try:
+        _init_local_worker(parent_pid, threads, plugins)
+        broken = None
+    except Exception as exc:  # a plug-in that does not import: every task says so
+        broken = f"the worker process could not start ({type(exc).__name__}: {exc})"
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):  # the runner is gone
+            return
+        if task is None:
+            return
+        if broken:
+            outcome = {"ok": False, "error": broken}
+        else:
+            try:
+                outcome = execute(task)
+            except BaseException as exc:  # noqa: BLE001 - execute() catches run errors; this is the rest
+                outcome = {"ok": False, "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
+        conn.send(outcome)
+
+
+class _Task:
+    """The handle of one submitted task (the runner's key for it)."""
+
+    __slots__ = ("task", "deaths", "outcome")
+
+    def __init__(self, task: dict[str, Any]):
+        self.task = task
+        self.deaths: list[str] = []  #: how each worker that ran it died
+        self.outcome: dict[str, Any] | None = None
+
+
+class _Worker:
+    """One worker process and the pipe to it."""
+
+    def __init__(self, context, initargs: tuple):
+        self.conn, child = context.Pipe()
+        self.process = context.Process(target=_local_worker, args=(child, *initargs), daemon=True,
+                                       name="demcal-worker")
+        self.process.start()
+        child.close()
+        self.task: _Task | None = None
+
+    def stop(self, kill: bool) -> None:
+        if kill and self.process.is_alive():
+            self.process.kill()
+        else:
+            try:
+                self.conn.send(None)
+            except (OSError, ValueError):
+                pass
+        self.process.join(5.0)
+        if self.process.is_alive():  # pragma: no cover - a worker stuck in C code
+            self.process.kill()
+            self.process.join(5.0)
+        self.conn.close()
+
+
+def _death(exitcode: int | None) -> str:
+    """How a worker process ended, in words."""
+    if exitcode is None:
+        return "it stopped answering"
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        if -exitcode == signal.SIGKILL:
+            return f"killed by {name}: out of memory, or killed by someone"
+        return f"killed by {name}"
+    return f"it exited with status {exitcode}"
+
+
 class LocalExecutor:
-    """A process pool on this machine.
+    """Worker processes on this machine, one task at a time each.
+
+    Unlike a ``concurrent.futures`` pool, which breaks as a whole when one worker
+    dies (failing every run in flight), a dead worker here costs only its own run:
+    the worker is replaced, the run is tried once more on the new one, and only a
+    second death is recorded as the run's failure, with its cause.
 
     Parameters
     ----------
@@ -166,57 +306,102 @@ class LocalExecutor:
 
     kind = "local"
 
+    #: Times a run is started again after the worker running it died.
+    RETRIES = 1
+
     def __init__(self, workers: int = 0, start_method: str = "spawn", plugins: Sequence[str] = ()):
         self.workers = workers or cpu_count()
         self.threads = max(1, cpu_count() // self.workers)
         self.start_method = start_method
         self.plugins = tuple(plugins)
-        self._pool = self._new_pool()
+        self._context = multiprocessing.get_context(start_method)
+        self._pool: list[_Worker] = []
+        self._queue: collections.deque[_Task] = collections.deque()
 
     @property
     def description(self) -> str:
         return f"{self.workers} local worker process{'es' if self.workers != 1 else ''}"
 
-    def _new_pool(self) -> concurrent.futures.ProcessPoolExecutor:
-        return concurrent.futures.ProcessPoolExecutor(
-            max_workers=self.workers,
-            mp_context=multiprocessing.get_context(self.start_method),
-            initializer=_init_local_worker,
-            initargs=(os.getpid(), self.threads, self.plugins),
-        )
+    def submit(self, task: Mapping[str, Any]) -> _Task:
+        handle = _Task(dict(task, threads=self.threads))
+        self._queue.append(handle)
+        self._dispatch()
+        return handle
 
-    def submit(self, task: Mapping[str, Any]) -> concurrent.futures.Future:
-        return self._pool.submit(execute, dict(task, threads=self.threads))
+    def _dispatch(self) -> None:
+        """Hand queued tasks to idle workers, starting workers up to ``self.workers``."""
+        for worker in [w for w in self._pool if w.task is None and not w.process.is_alive()]:
+            self._pool.remove(worker)  # died idle, after sending its last outcome
+            worker.stop(kill=True)
+        while self._queue:
+            worker = next((w for w in self._pool if w.task is None), None)
+            if worker is None:
+                if len(self._pool) >= self.workers:
+                    return
+                worker = _Worker(self._context, (os.getpid(), self.threads, self.plugins))
+                self._pool.append(worker)
+            handle = self._queue.popleft()
+            worker.task = handle
+            try:
+                worker.conn.send(handle.task)
+            except (OSError, ValueError):  # it died before it got the task
+                self._lost(worker)
+
+    def _lost(self, worker: _Worker) -> None:
+        """``worker`` died: retry its run on a fresh worker, or fail the run after a second death."""
+        worker.process.join(1.0)
+        handle = worker.task
+        worker.task = None
+        self._pool.remove(worker)
+        worker.stop(kill=True)
+        if handle is None:
+            return
+        handle.deaths.append(_death(worker.process.exitcode))
+        if len(handle.deaths) <= self.RETRIES:
+            self._queue.appendleft(handle)
+        else:
+            handle.outcome = {"ok": False, "error": _died(handle.deaths)}
 
     def wait(self, handles: Sequence[Any], timeout: float) -> list[tuple[Any, dict[str, Any]]]:
         """Wait up to ``timeout`` seconds; return ``(handle, outcome)`` for each finished one."""
-        done, _ = concurrent.futures.wait(handles, timeout=timeout,
-                                          return_when=concurrent.futures.FIRST_COMPLETED)
-        finished = []
-        broken = False
-        for future in done:
-            try:
-                finished.append((future, future.result()))
-            except concurrent.futures.process.BrokenProcessPool:
-                broken = True
-                finished.append((future, _died()))
-            except Exception as exc:  # pragma: no cover - execute() catches run errors
-                finished.append((future, {"ok": False, "error": f"{type(exc).__name__}: {exc}"}))
-        if broken:  # a worker was killed (out of memory, segfault): start a fresh pool
-            self._pool.shutdown(wait=False, cancel_futures=True)
-            self._pool = self._new_pool()
-        return finished
+        deadline = time.monotonic() + timeout
+        while True:
+            finished = [(h, h.outcome) for h in handles if h.outcome is not None]
+            busy = [w for w in self._pool if w.task is not None]
+            left = deadline - time.monotonic()
+            if finished or not busy or left <= 0:
+                return finished
+            ready = multiprocessing.connection.wait([w.conn for w in busy] + [w.process.sentinel for w in busy],
+                                                    timeout=left)
+            for worker in busy:
+                if worker.conn in ready or worker.process.sentinel in ready:
+                    self._collect(worker)
+            self._dispatch()
+
+    def _collect(self, worker: _Worker) -> None:
+        """Take the outcome ``worker`` sent, or handle its death."""
+        try:
+            if worker.conn.poll():
+                outcome = worker.conn.recv()
+                worker.task.outcome, worker.task = outcome, None
+                return
+        except (EOFError, OSError):
+            pass
+        if not worker.process.is_alive() or worker.conn.closed:
+            self._lost(worker)
 
     def close(self, cancel: bool = False) -> None:
-        if cancel:
-            for process in list(getattr(self._pool, "_processes", {}).values()):
-                process.terminate()
-        self._pool.shutdown(wait=not cancel, cancel_futures=cancel)
+        """Stop the workers: at once (``cancel``, their runs are lost) or once idle."""
+        self._queue.clear()
+        for worker in self._pool:
+            worker.stop(kill=cancel or worker.task is not None)
+        self._pool.clear()
 
 
-def _died() -> dict[str, Any]:
-    return {"ok": False, "error": "the worker process running it died (crash or out of memory); "
-                                  "rerun with --retry-failed"}
+def _died(deaths: Sequence[str]) -> str:
+    times = {1: "", 2: " twice"}.get(len(deaths), f" {len(deaths)} times")
+    return (f"the worker process running it died{times} ({deaths[-1]}); "
+            f"rerun with --retry-failed, with fewer --workers if memory is short")
 
 
 #: Seconds a connection to a Dask scheduler may take, handshake included.
@@ -372,6 +557,10 @@ def probe_scheduler(address: str, timeout: float | None = None) -> None:
         raise _unreachable(address, f"the server there is {what}")
 
 
+#: The only interface a local Dask cluster listens on.
+LOOPBACK = "127.0.0.1"
+
+
 class DaskExecutor:
     """A ``dask.distributed`` cluster: a scheduler address, or a ``LocalCluster``.
 
@@ -402,10 +591,15 @@ class DaskExecutor:
             self.address = address
         else:
             self.workers = workers or cpu_count()
-            # No dashboard; its HTTP server on a free port (the default 8787 warned
-            # "Port 8787 is already in use" whenever another Dask ran on this machine).
-            self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                         dashboard_address=":0", scheduler_kwargs={"dashboard": False})
+            # Every port on the loopback interface: the scheduler, the workers, their
+            # nannies and the HTTP servers (/health, /info), which ":0" opened on all
+            # interfaces. No dashboard; its HTTP server on a free port (the default 8787
+            # warned "Port 8787 is already in use" whenever another Dask ran here). A
+            # task whose worker died is retried once, as in the local pool.
+            self._cluster = LocalCluster(
+                n_workers=self.workers, threads_per_worker=1, processes=True, host=LOOPBACK,
+                dashboard_address=f"{LOOPBACK}:0", worker_dashboard_address=f"{LOOPBACK}:0",
+                scheduler_kwargs={"dashboard": False, "allowed_failures": LocalExecutor.RETRIES})
             self._client = Client(self._cluster)
             self.address = self._cluster.scheduler_address
         self.threads = 1

@@ -6,10 +6,17 @@ with its own seed; the store skips what is already done; pending runs are claime
 one at a time as workers free up, so several runners can share one store; a
 progress bar shows done / failed / remaining and the ETA. Verification runs of
 ``demcal calibrate`` go through the same :func:`run_specs`.
+
+While it runs, a runner heartbeats its claims and, every few seconds and once more
+before it leaves, puts back the claims of runners that died (their pid gone, or
+their heartbeat stale), so that it finishes their runs too. A run's result and its
+artifact folder are stored together; a full disk or a read-only folder stops the
+runner with one sentence, its claims handed back and no partial folder left.
 """
 
 from __future__ import annotations
 
+import contextlib
 import re
 import shutil
 import sys
@@ -21,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from demcal.campaign.config import Campaign, DesignConfig
-from demcal.campaign.store import RunRecord, RunSpec, Store
+from demcal.campaign.store import RunRecord, RunSpec, Store, StoreError, temp_name
 from demcal.errors import ConfigError
 
 #: Seconds between heartbeats of a runner's claims (stale after ``heartbeat_timeout_s``).
@@ -262,7 +269,7 @@ def remove_leftovers(store: Store) -> int:
         return 0
     if not entries:
         return 0
-    busy = {row[0][:10] for row in store.db.execute("SELECT key FROM runs WHERE status = 'running'")}
+    busy = {key[:10] for key in store.running_keys()}
     removed = 0
     for path, match in entries:
         if match["key"] in busy:
@@ -279,7 +286,10 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
     from tqdm import tqdm
 
     keys = list(specs)
-    in_flight: dict[Any, RunRecord] = {}
+    runs_dir = store.runs_dir.resolve()
+    timeout = campaign.executor.heartbeat_timeout_s
+    beat_s = min(HEARTBEAT_S, timeout / 4)  # several beats before a claim may be thought stale
+    in_flight: dict[Any, tuple[RunRecord, str]] = {}  #: handle -> (claim, temporary folder name)
     failed = before["failed"]
     bar = tqdm(total=len(keys), initial=before["done"] + before["failed"], desc=desc, unit="run",
                disable=not progress, file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
@@ -289,47 +299,98 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
         bar.set_postfix_str(f"failed={failed} remaining={remaining}", refresh=False)
         bar.update(step)
 
+    def reclaim() -> int:
+        """Claims of dead runners back to pending, their temporary folders removed."""
+        count = store.reclaim_stale(timeout)
+        if count:
+            remove_leftovers(store)
+        return count
+
     advance(0)
     start = time.perf_counter()
-    beat = time.monotonic()
+    next_beat = time.monotonic() + beat_s
+    fatal = None  #: a full disk or a read-only folder: claim nothing more, record the runs in flight, stop
     try:
         while True:
-            while len(in_flight) < executor.workers:
+            while fatal is None and len(in_flight) < executor.workers:
                 record = store.claim(keys)
                 if record is None:
                     break
                 spec = specs[record.key]
+                tmp = temp_name(spec.dirname)
                 task = {
                     "test": spec.test, "profile": spec.profile, "settings": dict(spec.settings),
                     "seed": spec.seed, "plugins": list(campaign.plugins), "label": spec.label,
-                    "runs_dir": str(store.runs_dir.resolve()), "name": spec.dirname,
+                    "runs_dir": str(runs_dir), "name": spec.dirname, "tmp": tmp,
                 }
-                in_flight[executor.submit(task)] = record
+                in_flight[executor.submit(task)] = (record, tmp)
             if not in_flight:
+                if fatal is not None:
+                    raise StoreError(fatal)
+                if reclaim():  # a runner that died holding claims is noticed before we leave
+                    continue
                 break
-            for handle, outcome in executor.wait(list(in_flight), timeout=HEARTBEAT_S):
-                record = in_flight.pop(handle)
-                version = outcome.get("engine_version") or engine_version()
-                if outcome.get("ok"):
-                    store.finish(record.id, outcome["result"], outcome.get("artifacts_dir"), version)
-                else:
+            for handle, outcome in executor.wait(list(in_flight), timeout=beat_s):
+                record, tmp = in_flight[handle]
+                if outcome.get("fatal"):  # not the run's fault: it goes back to pending
+                    if fatal is None and len(in_flight) > 1 and progress:
+                        bar.write(f"stopping after the {len(in_flight) - 1} runs in flight: {outcome['fatal']}")
+                    fatal = fatal or outcome["fatal"]
+                    with contextlib.suppress(StoreError):  # on a full disk it stays claimed by this runner,
+                        store.release([record.id])       # which is gone when it exits
+                    shutil.rmtree(runs_dir / tmp, ignore_errors=True)
+                    del in_flight[handle]
+                    continue
+                ok = _record_outcome(store, record, specs[record.key], tmp, outcome, runs_dir, engine_version)
+                del in_flight[handle]
+                if not ok:
                     failed += 1
-                    store.fail(record.id, outcome.get("error", "unknown error"), version, outcome.get("wall_s"))
-                    bar.write(f"{record.label} failed: {outcome.get('error')}")
+                    if progress:  # without the bar, the caller reports summary.failures
+                        bar.write(f"{record.label} failed: {outcome.get('error')}")
                 summary.ran += 1
                 advance(1)
-            if time.monotonic() - beat > HEARTBEAT_S:
+            if time.monotonic() >= next_beat:
                 store.heartbeat()
-                beat = time.monotonic()
+                reclaim()
+                next_beat = time.monotonic() + beat_s
     except BaseException:
-        # Ctrl-C or an error of the runner itself: hand the claims back at once so the
-        # next runner need not wait for them to go stale.
-        store.release([record.id for record in in_flight.values()])
+        # Ctrl-C, a full disk or an error of the runner itself: hand the claims back at
+        # once so the next runner need not wait for them to go stale, and leave no
+        # half-written folder. On a full disk even that write may fail: the claims then
+        # stay with this runner, which is gone once it exits, and the next one takes them.
         executor.close(cancel=True)
+        with contextlib.suppress(StoreError):
+            store.release([record.id for record, _ in in_flight.values()])
+        for _, tmp in in_flight.values():
+            shutil.rmtree(runs_dir / tmp, ignore_errors=True)
         raise
     finally:
         bar.close()
         summary.elapsed_s = time.perf_counter() - start
+
+
+def _record_outcome(store: Store, record: RunRecord, spec: RunSpec, tmp: str, outcome: dict[str, Any],
+                    runs_dir, engine_version) -> bool:
+    """Store one run's outcome and move its folder into place, together; True if it succeeded.
+
+    A run another runner has taken over meanwhile (this one's claim went stale) is
+    that runner's: its folder here is removed and nothing is recorded.
+    """
+    version = outcome.get("engine_version") or engine_version()
+    folder = runs_dir / tmp
+    # Only a folder that execute() completed; a worker that died leaves a partial one.
+    publish = (folder, runs_dir / spec.dirname) if outcome.get("tmp_dir") and folder.is_dir() else None
+    if publish is None:
+        shutil.rmtree(folder, ignore_errors=True)
+    if outcome.get("ok"):
+        owned = store.finish(record.id, outcome["result"], spec.dirname if publish else outcome.get("artifacts_dir"),
+                             version, publish=publish)
+    else:
+        owned = store.fail(record.id, outcome.get("error", "unknown error"), version, outcome.get("wall_s"),
+                           publish=publish, artifacts_dir=spec.dirname if publish else None)
+    if not owned:
+        shutil.rmtree(folder, ignore_errors=True)
+    return bool(outcome.get("ok"))
 
 
 def run_campaign(campaign: Campaign, *, workers: int | None = None, scheduler: str | None = None,

@@ -15,13 +15,20 @@ Concurrency and crashes:
   the timeout, is put back to ``pending`` by :meth:`Store.reclaim_stale`;
 * a result (status, responses, timings, artifacts) is written in one
   transaction, so a ``kill -9`` leaves either the old row or the new one;
-* artifacts go to ``runs/<name>.tmp-*`` and are renamed into ``runs/<name>`` when
-  complete (:func:`publish_dir`).
+* artifacts go to ``runs/.<name>.tmp-*`` and are renamed into ``runs/<name>`` inside
+  the transaction that records the run (``publish=`` of :meth:`Store.finish` and
+  :meth:`Store.fail`): a row and its folder change together or not at all.
+
+Faults: an existing store must pass ``PRAGMA quick_check`` before anything touches
+it, and every SQLite or file-system error (a damaged file, a folder where the file
+should be, a read-only folder, a full disk, a lock held too long) is raised as one
+:class:`StoreError` sentence that names the file and the fix.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import math
@@ -147,6 +154,127 @@ def _canonical(settings: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+class StoreError(DataError):
+    """The store cannot be used: damaged, a folder, read-only, on a full disk, locked."""
+
+
+#: How long a write waits for another runner's transaction [s].
+BUSY_TIMEOUT_S = 60.0
+
+#: Owners of the stores open in this process. A claim made from this process by an
+#: owner not in here was left by a store that closed without handing it back (its
+#: write failed on a full disk), so it is as stale as a dead process's claim.
+_OPEN_OWNERS: set[str] = set()
+
+
+
+def _schema_columns() -> frozenset[str]:
+    """The columns a store's ``runs`` table has (a file of another program lacks them)."""
+    db = sqlite3.connect(":memory:")
+    try:
+        db.executescript(_SCHEMA)
+        return frozenset(row[1] for row in db.execute("PRAGMA table_info(runs)"))
+    finally:
+        db.close()
+
+
+_RUN_COLUMNS = _schema_columns()
+
+
+def _fault(exc: BaseException) -> str:
+    """What an SQLite or file-system error means for the user, in one word."""
+    if isinstance(exc, OSError):
+        code = exc.errno
+        if code in (errno.ENOSPC, errno.EDQUOT):
+            return "full"
+        if code in (errno.EROFS, errno.EACCES, errno.EPERM):
+            return "readonly"
+        if code == errno.EISDIR:
+            return "folder"
+        return "io" if code == errno.EIO else "other"
+    name = getattr(exc, "sqlite_errorname", None) or ""
+    text = str(exc).lower()
+    if name.startswith("SQLITE_FULL") or "disk is full" in text:
+        return "full"
+    if name.startswith(("SQLITE_CORRUPT", "SQLITE_NOTADB")) or "malformed" in text or "not a database" in text:
+        return "damaged"
+    if name.startswith(("SQLITE_READONLY", "SQLITE_PERM")) or "readonly" in text or "read-only" in text:
+        return "readonly"
+    if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")) or "locked" in text:
+        return "locked"
+    if name.startswith("SQLITE_IOERR") or "disk i/o error" in text:
+        return "io"
+    if name.startswith("SQLITE_CANTOPEN") or "unable to open" in text:
+        return "cantopen"
+    return "other"
+
+
+def _disk_nearly_full(folder: Path) -> bool:
+    try:
+        return shutil.disk_usage(folder).free < 1 << 20
+    except OSError:
+        return False
+
+
+def _writable(path: Path) -> bool:
+    """Whether this process may write ``path`` (or create it: its nearest existing folder)."""
+    while not path.exists() and path.parent != path:
+        path = path.parent
+    return os.access(path, os.W_OK)
+
+
+def _reason(exc: BaseException) -> str:
+    text = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+    return " ".join(text.split()).rstrip(".") or type(exc).__name__
+
+
+def store_error(exc: BaseException, path: str | Path, what: str = "the store") -> StoreError:
+    """One sentence for an SQLite or file-system error of ``what`` at ``path``, with the fix.
+
+    ``what`` names the thing (``"the store"``, ``"the run folders"``); ``path`` is the
+    file or folder the user has to look at.
+    """
+    path = Path(path)
+    blocker = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
+    if blocker is not None:  # the work folder (or a folder above it) is a file
+        return StoreError(f"cannot write to {blocker}: {blocker} is a file, not a folder; choose another work "
+                          f"folder ([campaign] workdir) or move the file away.")
+    folder = path if path.is_dir() and what != "the store" else path.parent
+    fault = _fault(exc)
+    if fault in ("io", "other", "cantopen") and _disk_nearly_full(folder):
+        fault = "full"
+    if fault == "cantopen":
+        fault = "folder" if path.is_dir() else "readonly" if not _writable(folder) else "other"
+    if fault == "full":
+        return StoreError(f"no space left on the disk that holds {what} {path}; free some space and "
+                          f"run again (finished runs are kept).")
+    if fault == "damaged":
+        return StoreError(f"{what} {path} is damaged ({_reason(exc)}) and was left as it is; restore it "
+                          f"from a backup, or move it away to start a new store (its runs are then "
+                          f"simulated again).")
+    if fault == "readonly":
+        if not _writable(folder):
+            while not folder.exists() and folder.parent != folder:
+                folder = folder.parent
+            where = f"the folder {folder} is read-only"
+        elif path.exists() and not _writable(path):
+            where = f"the file {path} is read-only"
+        else:
+            where = f"{folder} is read-only to this process"
+        return StoreError(f"cannot write {what} {path}: {where}; make it writable or choose another "
+                          f"work folder.")
+    if fault == "folder":
+        return StoreError(f"{path} is a folder, not a store file; move it away or choose another work folder.")
+    if fault == "locked":
+        return StoreError(f"{what} {path} stayed locked by another process for {BUSY_TIMEOUT_S:g} s; let the "
+                          f"other demcal command finish (or stop it), then run again.")
+    if fault == "io":
+        return StoreError(f"cannot read or write {what} {path} (disk I/O error); check the disk and the "
+                          f"folder, then run again.")
+    return StoreError(f"cannot use {what} {path} ({_reason(exc)}); check the file and its folder, "
+                      f"or choose another work folder.")
+
+
 class Store:
     """The SQLite store of one campaign (``store.sqlite`` in its work folder).
 
@@ -154,6 +282,12 @@ class Store:
     ----------
     path : path of the SQLite file; its folder holds ``runs/`` with one folder per run.
     readonly : open without creating or changing anything.
+
+    Raises
+    ------
+    StoreError : the file is damaged (it fails ``PRAGMA quick_check``; nothing is
+        written to it), is a folder or another program's database, its folder is
+        read-only, the disk is full. Every later SQLite error is a ``StoreError`` too.
     """
 
     def __init__(self, path: str | Path, readonly: bool = False):
@@ -163,24 +297,115 @@ class Store:
         self.owner = uuid.uuid4().hex
         self.pid = os.getpid()
         self.host = socket.gethostname()
+        self.db: sqlite3.Connection | None = None
+        try:
+            self._open(readonly)
+        except BaseException as exc:
+            self._close_db()
+            if isinstance(exc, (sqlite3.Error, OSError)):
+                raise store_error(exc, self.path) from exc
+            raise
+        _OPEN_OWNERS.add(self.owner)
+
+    def _open(self, readonly: bool) -> None:
+        if self.path.is_dir():
+            raise StoreError(f"{self.path} is a folder, not a store file; move it away or choose another "
+                             f"work folder.")
+        exists = self.path.exists()
+        if readonly and not exists:
+            raise DataError(f"no results yet at '{self.path}'; run `demcal run` on the campaign first.")
+        if exists:
+            if not readonly and not (_writable(self.root) and _writable(self.path)):
+                raise store_error(PermissionError(errno.EACCES, "read-only", str(self.path)), self.path)
+            self._check(empty_ok=not readonly)  # before anything is written to it
         if readonly:
-            if not self.path.is_file():
-                raise DataError(f"no results yet at '{self.path}'; run `demcal run` on the campaign first.")
-            self.db = sqlite3.connect(f"file:{self.path}?mode=ro", uri=True, timeout=60, isolation_level=None)
+            uri = self.path.resolve().as_uri() + "?mode=ro"
+            if not _writable(self.root) and not self._wal_in_use():
+                uri += "&immutable=1"  # no -shm can be made, and no writer can be at work in a read-only folder
+            self.db = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S, isolation_level=None)
         else:
             self.runs_dir.mkdir(parents=True, exist_ok=True)
-            self.db = sqlite3.connect(self.path, timeout=60, isolation_level=None)
+            if not exists:
+                self._create()
+            self.db = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
             self.db.execute("PRAGMA journal_mode=WAL")
             self.db.execute("PRAGMA synchronous=NORMAL")  # durable against process crashes in WAL mode
             with self.transaction() as db:
                 for statement in _SCHEMA.split(";"):
                     if statement.strip():
                         db.execute(statement)
-        self.db.execute("PRAGMA busy_timeout=60000")
+        self.db.execute(f"PRAGMA busy_timeout={int(BUSY_TIMEOUT_S * 1000)}")
         self.db.row_factory = sqlite3.Row
 
+    def _create(self) -> None:
+        """Make a new store whole under another name and link it into place, so that
+        a reader never finds a store file without its tables. Two runners starting
+        at once: the first link wins and both use that file."""
+        tmp = self.path.with_name(f".{self.path.name}.new-{uuid.uuid4().hex[:8]}")
+        try:
+            db = sqlite3.connect(tmp, isolation_level=None)
+            try:
+                db.execute("PRAGMA journal_mode=WAL")  # kept in the file's header
+                db.executescript(_SCHEMA)
+            finally:
+                db.close()
+            try:
+                os.link(tmp, self.path)
+            except FileExistsError:
+                pass
+            except OSError:  # a file system without hard links: created in place below
+                pass
+        finally:
+            for leftover in (tmp, tmp.with_name(tmp.name + "-wal"), tmp.with_name(tmp.name + "-shm")):
+                with contextlib.suppress(OSError):
+                    leftover.unlink()
+
+    def _wal_in_use(self) -> bool:
+        """Whether the write-ahead log holds pages (a runner at work, or one that crashed)."""
+        wal = self.path.with_name(self.path.name + "-wal")
+        try:
+            return wal.stat().st_size > 0
+        except OSError:
+            return False
+
+    def _check(self, empty_ok: bool) -> None:
+        """Refuse a damaged file (``PRAGMA quick_check``) or another program's database.
+
+        The check has a connection of its own, read-only; with no write-ahead log in
+        use it opens the file as immutable, so that even SQLite's ``-wal`` and
+        ``-shm`` files are not created next to a file that turns out to be damaged.
+        """
+        uri = self.path.resolve().as_uri() + ("?mode=ro" if self._wal_in_use() else "?mode=ro&immutable=1")
+        db = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+        try:
+            rows = db.execute("PRAGMA quick_check").fetchall()  # "file is not a database": raised
+            verdict = rows[0][0] if rows else "no answer to the check"
+            if verdict != "ok":
+                problem = " ".join(str(verdict).split())[:120]
+                if len(rows) > 1:
+                    problem += f", and {len(rows) - 1} more problems"
+                raise store_error(sqlite3.DatabaseError(f"database disk image is malformed: {problem}"), self.path)
+            if not db.execute("SELECT 1 FROM sqlite_master LIMIT 1").fetchone():  # a store being created
+                if empty_ok:
+                    return
+                raise DataError(f"no results yet at '{self.path}'; run `demcal run` on the campaign first.")
+            columns = {row[1] for row in db.execute("PRAGMA table_info(runs)")}
+        finally:
+            db.close()
+        missing = sorted(_RUN_COLUMNS - columns)
+        if missing:
+            raise StoreError(f"{self.path} is not a demcal store (its 'runs' table lacks "
+                             f"{', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}); move it away "
+                             f"or choose another work folder.")
+
+    def _close_db(self) -> None:
+        if self.db is not None:
+            with contextlib.suppress(sqlite3.Error):
+                self.db.close()
+
     def close(self) -> None:
-        self.db.close()
+        _OPEN_OWNERS.discard(self.owner)
+        self._close_db()
 
     def __enter__(self) -> "Store":
         return self
@@ -189,15 +414,27 @@ class Store:
         self.close()
 
     @contextlib.contextmanager
-    def transaction(self) -> Iterator[sqlite3.Connection]:
-        """``BEGIN IMMEDIATE`` ... ``COMMIT`` (rolled back on any exception)."""
-        self.db.execute("BEGIN IMMEDIATE")
+    def guard(self) -> Iterator[None]:
+        """Turn an SQLite error into one :class:`StoreError` sentence."""
         try:
-            yield self.db
-        except BaseException:
-            self.db.execute("ROLLBACK")
-            raise
-        self.db.execute("COMMIT")
+            yield
+        except sqlite3.Error as exc:
+            raise store_error(exc, self.path) from exc
+
+    @contextlib.contextmanager
+    def transaction(self) -> Iterator[sqlite3.Connection]:
+        """``BEGIN IMMEDIATE`` ... ``COMMIT``; rolled back on any exception, the failed
+        ``COMMIT`` of a full disk included."""
+        with self.guard():
+            self.db.execute("BEGIN IMMEDIATE")
+            try:
+                yield self.db
+                self.db.execute("COMMIT")
+            except BaseException:
+                if self.db.in_transaction:
+                    with contextlib.suppress(sqlite3.Error):
+                        self.db.execute("ROLLBACK")
+                raise
 
     # ---------------------------------------------------------------- campaign
     def record_campaign(self, name: str, source: str, version: str) -> None:
@@ -250,28 +487,47 @@ class Store:
                        (time.time(), self.owner))
 
     def finish(self, run_id: int, result: Mapping[str, Any], artifacts_dir: str | None,
-               engine_version: str) -> bool:
-        """Store a finished run in one transaction; False if this runner no longer owns it."""
-        responses = dict(result.get("responses", {}))
-        with self.transaction() as db:
-            cursor = db.execute(
-                "UPDATE runs SET status = 'done', responses = ?, result = ?, artifacts_dir = ?, "
-                "finished_at = ?, wall_s = ?, engine_version = ?, error = NULL, heartbeat = NULL "
-                "WHERE id = ? AND status = 'running' AND owner = ?",
-                (json.dumps(responses), json.dumps(dict(result)), artifacts_dir, time.time(),
-                 float(result.get("wall_s", 0.0)), engine_version, run_id, self.owner),
-            )
-            return cursor.rowcount == 1
+               engine_version: str, publish: tuple[Path, Path] | None = None) -> bool:
+        """Store a finished run in one transaction; False if this runner no longer owns it.
 
-    def fail(self, run_id: int, error: str, engine_version: str, wall_s: float | None = None) -> bool:
-        """Record a failed run with its error text; False if no longer owned."""
-        with self.transaction() as db:
-            cursor = db.execute(
-                "UPDATE runs SET status = 'failed', error = ?, finished_at = ?, wall_s = ?, "
-                "engine_version = ?, heartbeat = NULL WHERE id = ? AND status = 'running' AND owner = ?",
-                (error, time.time(), wall_s, engine_version, run_id, self.owner),
-            )
-            return cursor.rowcount == 1
+        ``publish=(tmp, final)`` moves the run's artifact folder into place inside that
+        transaction: if the row cannot be written (a full disk), the folder is moved back.
+        """
+        responses = dict(result.get("responses", {}))
+        return self._settle(
+            "UPDATE runs SET status = 'done', responses = ?, result = ?, artifacts_dir = ?, "
+            "finished_at = ?, wall_s = ?, engine_version = ?, error = NULL, heartbeat = NULL "
+            "WHERE id = ? AND status = 'running' AND owner = ?",
+            (json.dumps(responses), json.dumps(dict(result)), artifacts_dir, time.time(),
+             float(result.get("wall_s", 0.0)), engine_version, run_id, self.owner), publish)
+
+    def fail(self, run_id: int, error: str, engine_version: str, wall_s: float | None = None,
+             publish: tuple[Path, Path] | None = None, artifacts_dir: str | None = None) -> bool:
+        """Record a failed run with its error text; False if no longer owned (``publish``
+        as for :meth:`finish`)."""
+        return self._settle(
+            "UPDATE runs SET status = 'failed', error = ?, finished_at = ?, wall_s = ?, "
+            "engine_version = ?, artifacts_dir = COALESCE(?, artifacts_dir), heartbeat = NULL "
+            "WHERE id = ? AND status = 'running' AND owner = ?",
+            (error, time.time(), wall_s, engine_version, artifacts_dir, run_id, self.owner), publish)
+
+    def _settle(self, sql: str, args: tuple, publish: tuple[Path, Path] | None) -> bool:
+        swap = None
+        try:
+            with self.transaction() as db:
+                if db.execute(sql, args).rowcount != 1:
+                    return False
+                if publish is not None:
+                    swap = _Swap(*publish)
+        except OSError as exc:  # the folder could not be moved: the row was rolled back
+            raise store_error(exc, exc.filename or publish[1], "the run folder") from exc
+        except BaseException:
+            if swap is not None:
+                swap.undo()
+            raise
+        if swap is not None:
+            swap.keep()
+        return True
 
     def release(self, run_ids: Iterable[int] | None = None) -> int:
         """Put this runner's claims (all, or ``run_ids``) back to pending."""
@@ -291,20 +547,29 @@ class Store:
     def reclaim_stale(self, timeout_s: float = 120.0) -> int:
         """Put back to pending the runs claimed by runners that are gone.
 
-        A claim is stale when its pid no longer exists on this host, or when its
-        heartbeat is older than ``timeout_s`` (a runner on another host, or a pid
-        reused by an unrelated process).
+        A claim is stale when its pid no longer exists on this host (or is this
+        process, whose store that made the claim is closed), or when its heartbeat is
+        older than ``timeout_s`` (a runner on another host, or a pid reused by an
+        unrelated process). Runners call this while they run, not only at start-up.
         """
         now = time.time()
+        me = os.getpid()
+
+        def gone(row) -> bool:
+            if row["owner"] == self.owner:
+                return False
+            if row["host"] == self.host and (
+                    not _pid_alive(row["pid"]) or (row["pid"] == me and row["owner"] not in _OPEN_OWNERS)):
+                return True
+            return row["heartbeat"] is None or now - row["heartbeat"] > timeout_s
+
+        with self.guard():
+            rows = self.db.execute("SELECT id, pid, host, heartbeat, owner FROM runs WHERE status = 'running'")
+            if not any(gone(row) for row in rows.fetchall()):
+                return 0  # the usual case: no write, so a full disk or a busy store costs nothing here
         with self.transaction() as db:
             rows = db.execute("SELECT id, pid, host, heartbeat, owner FROM runs WHERE status = 'running'").fetchall()
-            stale = [
-                row["id"] for row in rows
-                if row["owner"] != self.owner and (
-                    (row["host"] == self.host and not _pid_alive(row["pid"]))
-                    or row["heartbeat"] is None or now - row["heartbeat"] > timeout_s
-                )
-            ]
+            stale = [row["id"] for row in rows if gone(row)]
             for run_id in stale:
                 db.execute(
                     "UPDATE runs SET status = 'pending', owner = NULL, pid = NULL, host = NULL, heartbeat = NULL "
@@ -319,27 +584,35 @@ class Store:
 
     def records(self, keys: Sequence[str] | None = None) -> list[RunRecord]:
         """Rows (of ``keys``, in that order, if given; else all by id)."""
-        if keys is None:
-            return [_record(r) for r in self.db.execute("SELECT * FROM runs ORDER BY id")]
-        by_key = {}
-        keys = list(keys)
-        for start in range(0, len(keys), 500):
-            chunk = keys[start:start + 500]
-            marks = ",".join("?" * len(chunk))
-            for row in self.db.execute(f"SELECT * FROM runs WHERE key IN ({marks})", chunk):
-                by_key[row["key"]] = _record(row)
+        with self.guard():
+            if keys is None:
+                return [_record(r) for r in self.db.execute("SELECT * FROM runs ORDER BY id")]
+            by_key = {}
+            keys = list(keys)
+            for start in range(0, len(keys), 500):
+                chunk = keys[start:start + 500]
+                marks = ",".join("?" * len(chunk))
+                for row in self.db.execute(f"SELECT * FROM runs WHERE key IN ({marks})", chunk):
+                    by_key[row["key"]] = _record(row)
         return [by_key[k] for k in keys if k in by_key]
 
     def counts(self, keys: Sequence[str] | None = None) -> dict[str, int]:
         """Number of runs per status (of ``keys``, if given)."""
         where, args = _key_filter(keys)
-        rows = self.db.execute(f"SELECT status, COUNT(*) FROM runs WHERE 1{where} GROUP BY status", args)
         counts = dict.fromkeys(STATUSES, 0)
-        counts.update({status: n for status, n in rows})
+        with self.guard():
+            rows = self.db.execute(f"SELECT status, COUNT(*) FROM runs WHERE 1{where} GROUP BY status", args)
+            counts.update({status: n for status, n in rows})
         return counts
 
+    def running_keys(self) -> set[str]:
+        """Keys of the runs some runner holds a claim on."""
+        with self.guard():
+            return {row[0] for row in self.db.execute("SELECT key FROM runs WHERE status = 'running'")}
+
     def integrity(self) -> str:
-        return self.db.execute("PRAGMA integrity_check").fetchone()[0]
+        with self.guard():
+            return self.db.execute("PRAGMA integrity_check").fetchone()[0]
 
 
 def _key_filter(keys: Sequence[str] | None) -> tuple[str, tuple]:
@@ -385,27 +658,59 @@ def _pid_alive(pid: int | None) -> bool:
 
 def temp_dir(runs_dir: Path, name: str) -> Path:
     """A fresh temporary folder for a run's artifacts, next to its final place."""
-    path = runs_dir / f".{name}.tmp-{uuid.uuid4().hex[:8]}"
+    path = runs_dir / temp_name(name)
     path.mkdir(parents=True)
     return path
 
 
+def temp_name(name: str) -> str:
+    """The name of a new temporary folder for run folder ``name`` (``.<name>.tmp-<hex>``)."""
+    return f".{name}.tmp-{uuid.uuid4().hex[:8]}"
+
+
+class _Swap:
+    """Folder ``tmp`` moved into ``final``'s place; the folder it replaces is kept aside
+    until :meth:`keep`, so that :meth:`undo` can put everything back."""
+
+    def __init__(self, tmp: Path, final: Path):
+        self.tmp, self.final, self.old = Path(tmp), Path(final), None
+        if self.final.exists():
+            self.old = self.final.with_name(f".{self.final.name}.old-{uuid.uuid4().hex[:8]}")
+            os.replace(self.final, self.old)
+        try:
+            os.replace(self.tmp, self.final)
+        except BaseException:
+            if self.old is not None:
+                os.replace(self.old, self.final)
+            raise
+
+    def undo(self) -> None:
+        with contextlib.suppress(OSError):  # a later runner reruns the run and publishes again
+            os.replace(self.final, self.tmp)
+            if self.old is not None:
+                os.replace(self.old, self.final)
+
+    def keep(self) -> None:
+        if self.old is not None:
+            shutil.rmtree(self.old, ignore_errors=True)
+
+
 def publish_dir(tmp: Path, final: Path) -> None:
     """Move a completed artifact folder into place (replacing an older one)."""
-    if final.exists():
-        old = final.with_name(f".{final.name}.old-{uuid.uuid4().hex[:8]}")
-        os.replace(final, old)
-        os.replace(tmp, final)
-        shutil.rmtree(old, ignore_errors=True)
-    else:
-        os.replace(tmp, final)
+    _Swap(tmp, final).keep()
 
 
 def write_json_atomic(path: Path, data: Any) -> None:
     """Write JSON to ``path`` through a temporary file and a rename."""
+    text = json.dumps(data, indent=2, sort_keys=True, default=_json_default)
     tmp = path.with_name(f".{path.name}.tmp-{uuid.uuid4().hex[:8]}")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True, default=_json_default))
-    os.replace(tmp, path)
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except BaseException:  # a full disk: neither a partial file nor a 0-byte temporary stays
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
 
 
 def _json_default(value: Any) -> Any:
