@@ -112,6 +112,9 @@ class Incline(C.BenchExperiment):
                     "along-slope push on it over the material's weight", 0.0, 1.0),
             Setting("incline.slide_speed", 0.02, "m/s",
                     "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
+            Setting("incline.visible_mm", 2.0, "mm",
+                    "displacement of the material along the slope that counts as first visible motion "
+                    "(sliding_angle_moved_deg)", 0.01, 100.0),
             Setting("incline.arm_length", 0.3, "m",
                     "L: container start to spindle, for H = L sin(theta) (paper: 300 mm)", 0.001, 10.0),
             Setting("geometry.scale", 4.0, "-", "container scale factor (as the repose platform)",
@@ -209,6 +212,8 @@ class Incline(C.BenchExperiment):
         v_detect = float(s["incline.slide_speed"])
         x0 = _mean_x(sim)
         last = [0.0]
+        visible = float(s["incline.visible_mm"]) * 1e-3
+        moved_at = None  # tilt [deg] when the material had moved `visible` down the slope
 
         def tilt_at(t):
             return math.radians(start) + rate * (t - t0)
@@ -224,6 +229,8 @@ class Incline(C.BenchExperiment):
             times.append(sim.time)
             angles.append(math.degrees(tilt_at(sim.time)))
             speeds.append(v)
+            if moved_at is None and _mean_x(sim) - x0 >= visible:
+                moved_at = angles[-1]
             if follow:
                 fx = float(sim.wall_forces()["container"][0][0])
                 xc = motion.offset[0] + motion.velocity[0] * steps * sim.dt
@@ -240,16 +247,21 @@ class Incline(C.BenchExperiment):
                     f"the material did not slide up to {angles[-1]:.1f} deg (incline.max_angle "
                     f"{max_angle:g} deg, time.max_time {max_time:g} s); raise them.")
         vtkw(sim, force=True)
+        base = base_kinematics(sim.state) if not block else {}
         theta_c, theta_d = onset_angle(np.array(times), np.array(angles), np.array(speeds), v_detect)
         L = float(s["incline.arm_length"])
         progress(f"sliding at {theta_c:.2f} deg (detected at {theta_d:.2f} deg)")
         responses = {
             "sliding_angle_deg": theta_c,
             "sliding_angle_detected_deg": theta_d,
+            # first visible motion, as the lab's observer reads it (paper §3.1: the plate
+            # is stopped when container and material "began to slide")
+            "sliding_angle_moved_deg": theta_d if moved_at is None else moved_at,
             "equivalent_height_mm": L * 1e3 * math.sin(math.radians(theta_c)),
             # 1 when the material was already moving as the tilt began: the angle is then
             # only an upper bound; lower incline.start_angle
             "slid_at_start": float(theta_c - start < 0.5),
+            **base,
         }
         if theta_c - start < 0.5:
             progress(f"warning: the material moved as soon as tilting began at {start:g} deg; "
@@ -260,6 +272,42 @@ class Incline(C.BenchExperiment):
             artifacts["incline_png"] = _plot(out_dir, times, angles, speeds, theta_c, v_detect)
         return dict(responses=responses, spread=spread, particles=n, steps=sim.step_count,
                     simulated_s=sim.time, artifacts=artifacts)
+
+
+def base_kinematics(st, touch: float = 0.05) -> dict[str, float]:
+    """How the bed moves at the detection of sliding: on its base, and there by slip or roll.
+
+    The basal bodies are those with a sphere within ``touch`` of its radius of the film
+    (z = 0). ``base_mass_fraction`` is their share of the mass; ``base_velocity_ratio`` is
+    their mass-weighted mean velocity along the slope over the whole bed's (1: the bed
+    moves as one block; below 1: it shears above its base); ``base_slip_ratio`` is the
+    mass-weighted mean velocity along the slope of their contact points
+    (``v + omega x (p - x_com)`` at the sphere's lowest point) over their velocity (1:
+    they slide on the film; 0: they roll on it without slipping).
+    """
+    sph_z = st.sphere_positions[:, 2] - st.radii
+    touching = np.flatnonzero(sph_z < touch * st.radii)
+    m = st.masses
+    v_all = float((m * st.velocities[:, 0]).sum() / m.sum())
+    if touching.size == 0 or abs(v_all) < 1e-12:
+        return {}
+    bodies = st.sphere_body[touching]
+    slip = np.zeros(len(m))
+    count = np.zeros(len(m))
+    p = st.sphere_positions[touching].copy()
+    p[:, 2] = 0.0
+    arm = p - st.positions[bodies]
+    w = st.omegas[bodies]
+    vc = st.velocities[bodies, 0] + (w[:, 1] * arm[:, 2] - w[:, 2] * arm[:, 1])
+    np.add.at(slip, bodies, vc)
+    np.add.at(count, bodies, 1.0)
+    base = np.flatnonzero(count > 0)
+    mb = m[base]
+    v_base = float((mb * st.velocities[base, 0]).sum() / mb.sum())
+    slip_base = float((mb * slip[base] / count[base]).sum() / mb.sum())
+    return {"base_mass_fraction": float(mb.sum() / m.sum()),
+            "base_velocity_ratio": v_base / v_all,
+            "base_slip_ratio": slip_base / v_base if abs(v_base) > 1e-12 else float("nan")}
 
 
 def _mean_x(sim) -> float:
