@@ -54,6 +54,7 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
     if isinstance(campaigns, Campaign):
         campaigns = [campaigns]
     campaigns = list(campaigns)
+    references = {c.name: _reference_table(c) for c in campaigns if c.reference_table is not None}
     if calibrations is None:
         calibrations = [calibrate(c, simulate=False, progress=False) for c in campaigns]
     out = Path(out) if out is not None else campaigns[0].workdir / "report"
@@ -64,7 +65,7 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
         report.bullets([f"{c.title} ({c.path.name}, {c.test}, profile {c.profile})" for c in campaigns])
     for calibration in calibrations:
         _campaign_sections(report, calibration, prefix=calibration.campaign.name if len(campaigns) > 1 else "")
-    _paper_sections(report, campaigns)
+    _paper_sections(report, campaigns, references)
     return report.write()
 
 
@@ -88,6 +89,9 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
         f"Virtual test {c.test}, profile {c.profile}; {len(done)} of {len(table)} design runs done"
         + (f", {int((table['status'] == 'failed').sum())} failed" if (table["status"] == "failed").any() else "")
         + f"; campaign file {c.path.name}; store {c.store_path}.")
+    if c.plugins:
+        report.paragraph(f"Plugins named by the campaign file: {', '.join(c.plugins)} (imported by `demcal run` and "
+                         "`demcal calibrate` to register the virtual test; `demcal report` imports none).")
     if len(done) < len(table):
         report.note(f"{len(table) - len(done)} of {len(table)} design runs are not done, so the model is fitted "
                     f"to {len(done)}: run `{_command(c, 'run')}`"
@@ -104,6 +108,7 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
 
     report.section("Design and results", 3)
     _design_section(report, cal, n)
+    _benchmark_section(report, cal, n)
 
     for response in cal.models:
         _model_sections(report, cal, response, n)
@@ -326,6 +331,37 @@ def _stale(cal: Calibration) -> list[str]:
             if r.condition.name in before and before[r.condition.name] != r.chosen]
 
 
+def _benchmark_section(report: HtmlReport, cal: Calibration, n) -> None:
+    """demcal's benches against the published responses at the same parameter values."""
+    from demcal.campaign.store import Store
+    from demcal.report import benchmark
+
+    c = cal.campaign
+    if c.reference_table is None or not c.store_path.is_file():
+        return
+    with Store(c.store_path, readonly=True) as store:
+        records = store.records()
+    for response in c.response_names:
+        comparisons = benchmark.compare(c, response, records)
+        if not comparisons:
+            continue
+        label = next((r.label for r in c.responses if r.name == response and r.label), response)
+        report.section(f"demcal's benches against the published responses ({label})", 3)
+        report.paragraph(
+            f"Each design point of {c.reference_table.name} simulated by demcal ({c.test}) at the same parameter "
+            "values: the mean of demcal's runs there against the published value. Offset = demcal - published; "
+            "slope of demcal on published (1: the same factor effects); error bars: the seed-to-seed sd "
+            "(the point's own where it has replicates, else pooled). The published responses come from "
+            "another code and set-up (docs/validation.md explains the offsets).")
+        report.table(pd.DataFrame([x.summary() for x in comparisons]).set_index("profile"),
+                     n(f"{response}_vs_published"), caption="demcal against the published responses, per profile")
+        points = pd.concat([x.points.assign(profile=x.profile) for x in comparisons]).set_index("profile")
+        report.table(points, n(f"{response}_vs_published_points"),
+                     caption="Point by point (n: demcal runs at the point; sd: their seed-to-seed sd)")
+        report.figure(benchmark.figure(comparisons, response, label), n(f"{response}_vs_published"),
+                      caption="demcal against the published responses at the same parameters (dashed: 1:1)")
+
+
 def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
     """The closed loop per condition: why it stopped, how the box moved, every step."""
     loops = [(r, r.loop) for r in cal.conditions if r.loop is not None]
@@ -507,12 +543,39 @@ def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
 # --------------------------------------------------------------------------- paper
 
 
-def _paper_sections(report: HtmlReport, campaigns: Sequence[Campaign]) -> None:
-    """Re-analyse the paper's own design tables and check its verification errors."""
+def _reference_table(campaign: Campaign):
+    """The campaign's ``[report] reference_table``, read (with the CSV size limit) and
+    checked: the columns of the paper's study of the same name (``repose``,
+    ``sliding``), else the campaign's factors and responses. Returns ``(frame, runs)``;
+    a table that does not fit is one :class:`DataError` sentence, before anything is written."""
+    from demcal.doe.io import read_csv_text
+    from demcal.errors import DemcalError
+    from demcal.report.paper import STUDIES
+    from demcal.rsm.data import read_table_checked, runs_from_frame
+
+    path = campaign.reference_table
+    study = {s.key: s for s in STUDIES}.get(campaign.name)
+    factors = study.factors if study is not None else campaign.factors
+    responses = [study.response] if study is not None else campaign.response_names
+    try:
+        frame = read_table_checked(path, read_csv_text(path))
+        runs = runs_from_frame(frame, responses, [f.name for f in factors], {f.name: f for f in factors},
+                               str(path), coded=None)
+    except DemcalError as exc:
+        raise DataError(f"[report] reference_table of {campaign.path.name}: {exc}") from None
+    return frame, runs
+
+
+def _paper_sections(report: HtmlReport, campaigns: Sequence[Campaign], references: dict) -> None:
+    """Re-analyse the reference tables: the paper's own design tables with its printed
+    numbers and verification errors, any other campaign's table with its own model."""
     from demcal.report.paper import STUDIES, add_model_sections, analyse_study
 
     studies = {study.key: study for study in STUDIES}
-    chosen = [c for c in campaigns if c.reference_table is not None and c.name in studies]
+    for campaign in campaigns:
+        if campaign.name in references and campaign.name not in studies:
+            _reference_sections(report, campaign, *references[campaign.name])
+    chosen = [c for c in campaigns if c.name in references and c.name in studies]
     if not chosen:
         return
     report.section("The reference paper re-analysed", 2)
@@ -522,7 +585,7 @@ def _paper_sections(report: HtmlReport, campaigns: Sequence[Campaign]) -> None:
         "errors recomputed from the numbers it prints.")
     for campaign in chosen:
         study = studies[campaign.name]
-        analysis = analyse_study(study, n_starts=10)
+        analysis = analyse_study(study, n_starts=10, frame=references[campaign.name][0])
         report.section(study.title, 3)
         add_model_sections(report, analysis.model, f"paper_{study.key}", f"{study.anova_table} re-analysed: ",
                            study.printed_anova, study.printed_equation, study.printed_fit, surfaces=(),
@@ -530,6 +593,22 @@ def _paper_sections(report: HtmlReport, campaigns: Sequence[Campaign]) -> None:
         report.table(analysis.points, f"paper_{study.key}_points",
                      caption=f"The paper's calibrated parameters ({study.points_table}) on its own model")
         _paper_verification(report, campaign)
+
+
+def _reference_sections(report: HtmlReport, campaign: Campaign, frame, runs) -> None:
+    """A campaign's published design table (not one of the paper's) fitted with the
+    campaign's model order, each response its own sections."""
+    from demcal.report.paper import add_model_sections
+    from demcal.rsm import fit_response_surface
+
+    report.section(f"Reference table re-analysed: {campaign.reference_table.name}", 2)
+    report.paragraph(f"The published runs of {campaign.reference_table.name} ({len(frame)} runs) fitted with the "
+                     f"campaign's {campaign.model_order} model, to compare with the campaign's own fit above.")
+    for response in campaign.response_names:
+        model = fit_response_surface(runs.coded, runs.responses[response], runs.factors, campaign.model_order,
+                                     response)
+        add_model_sections(report, model, f"reference_{response}", "Reference table: ", surfaces=(),
+                           reduce_alpha=campaign.reduce_alpha, level=3)
 
 
 def _paper_verification(report: HtmlReport, campaign: Campaign) -> None:

@@ -1,0 +1,124 @@
+"""demcal's benches against published responses at the same parameter values.
+
+A campaign whose ``[report] reference_table`` is a published design table (coded factor
+columns named like the campaign's factors and a response column, e.g. the paper's
+Tables 4 and 8) is compared point by point: for every profile that has runs at those
+parameter values in the store, the mean of demcal's runs at each design point against
+the published value, with the mean offset (demcal - published), the RMS difference, the
+correlation and the slope of demcal on published (ordinary least squares). A slope of 1
+with an offset is a level shift; a slope far from 1 means the factor effects differ.
+Error bars are the seed-to-seed sd: the point's own where it has replicates, else the sd
+pooled over every point that has.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from demcal.campaign.config import Campaign
+
+
+@dataclass
+class Comparison:
+    """One profile's point-by-point comparison."""
+
+    profile: str
+    points: pd.DataFrame  #: run, coded factors, published, demcal mean, sd, n
+    offset: float
+    rms: float
+    correlation: float
+    slope: float
+    pooled_sd: float
+
+    def summary(self) -> dict:
+        return {"profile": self.profile, "points": len(self.points), "mean offset": self.offset,
+                "RMS": self.rms, "correlation": self.correlation, "slope": self.slope,
+                "seed sd (pooled)": self.pooled_sd}
+
+
+def read_reference(campaign: Campaign, response: str) -> pd.DataFrame | None:
+    """The reference table with the campaign's factor columns and ``response``, or None."""
+    if campaign.reference_table is None:
+        return None
+    try:
+        ref = pd.read_csv(campaign.reference_table)
+    except (OSError, ValueError, pd.errors.ParserError):
+        return None
+    if response not in ref or not set(campaign.factor_names) <= set(ref.columns):
+        return None
+    return ref
+
+
+def compare(campaign: Campaign, response: str, records) -> list[Comparison]:
+    """One :class:`Comparison` per profile with runs at the reference table's points."""
+    ref = read_reference(campaign, response)
+    if ref is None:
+        return []
+    names = campaign.factor_names
+    fixed = dict(campaign.settings)
+    params = [f.parameter for f in campaign.factors]
+    by_profile: dict[str, dict[tuple, list[float]]] = {}
+    for r in records:
+        if r.status != "done" or r.test != campaign.test or response not in r.responses:
+            continue
+        if not set(params) <= set(r.parameters):
+            continue
+        if {k: v for k, v in r.settings.items() if k not in params} != fixed:
+            continue
+        coded = tuple(round(float(f.to_coded(r.parameters[f.parameter])), 6) for f in campaign.factors)
+        by_profile.setdefault(r.profile, {}).setdefault(coded, []).append(float(r.responses[response]))
+    out = []
+    for profile, groups in sorted(by_profile.items()):
+        rows = []
+        for _, row in ref.iterrows():
+            key = tuple(round(float(row[n]), 6) for n in names)
+            values = groups.get(key)
+            if not values:
+                continue
+            rows.append({"run": int(row["run"]) if "run" in row else len(rows) + 1,
+                         **{n: float(row[n]) for n in names}, "published": float(row[response]),
+                         "demcal": float(np.mean(values)), "n": len(values),
+                         "sd": float(np.std(values, ddof=1)) if len(values) > 1 else np.nan})
+        if len(rows) < 3:
+            continue
+        points = pd.DataFrame(rows)
+        ss, df = 0.0, 0
+        for values in groups.values():
+            if len(values) > 1:
+                ss += float(np.sum((np.array(values) - np.mean(values)) ** 2))
+                df += len(values) - 1
+        pooled = float(np.sqrt(ss / df)) if df else np.nan
+        diff = points["demcal"] - points["published"]
+        x, y = points["published"].to_numpy(), points["demcal"].to_numpy()
+        slope = float(np.polyfit(x, y, 1)[0]) if np.ptp(x) > 0 else np.nan
+        corr = float(np.corrcoef(x, y)[0, 1]) if np.ptp(x) > 0 and np.ptp(y) > 0 else np.nan
+        out.append(Comparison(profile, points, float(diff.mean()), float(np.sqrt((diff ** 2).mean())), corr,
+                              slope, pooled))
+    return out
+
+
+def figure(comparisons: list[Comparison], response: str, label: str):
+    """demcal against published, one marker per profile, 1:1 line, seed sd as error bars."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(5.2, 4.6), dpi=110)
+    ax = fig.add_subplot()
+    lo, hi = np.inf, -np.inf
+    for i, c in enumerate(comparisons):
+        p = c.points
+        err = p["sd"].fillna(c.pooled_sd).to_numpy()
+        ax.errorbar(p["published"], p["demcal"], yerr=np.where(np.isfinite(err), err, 0.0), fmt="os^D"[i % 4],
+                    ms=4, lw=0.8, capsize=2, color=f"C{i}",
+                    label=f"{c.profile}: offset {c.offset:+.2f}°, RMS {c.rms:.2f}°, slope {c.slope:.2f}")
+        lo = min(lo, p["published"].min(), p["demcal"].min())
+        hi = max(hi, p["published"].max(), p["demcal"].max())
+    pad = 0.05 * (hi - lo)
+    ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], color="0.4", lw=1, ls="--", label="1:1")
+    ax.set_xlabel(f"published {label} [°]")
+    ax.set_ylabel(f"demcal {label} [°]")
+    ax.legend(frameon=False, fontsize=8)
+    fig.tight_layout()
+    return fig
