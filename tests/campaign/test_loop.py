@@ -233,3 +233,36 @@ def test_sigkill_mid_loop_resumes_without_rerunning(tmp_path):
     fresh = calibrate(campaign.with_workdir(tmp_path / "fresh"), workers=1, progress=False) \
         if run_campaign(campaign.with_workdir(tmp_path / "fresh"), workers=1, progress=False).done else None
     assert [c.chosen for c in resumed.conditions] == [c.chosen for c in fresh.conditions]
+
+
+def test_discrepancy_is_a_bias_then_a_gaussian_process():
+    from demcal.campaign.loop import Box, CorrectedSurface, Discrepancy
+
+    rng = np.random.default_rng(0)
+    few = [(np.zeros(3), 3.1), (np.zeros(3), 2.9)]
+    d = Discrepancy(few)
+    assert d.kind == "additive" and d(np.zeros(3)) == (pytest.approx(3.0), pytest.approx(0.1))
+    # a discrepancy that grows along the first factor, seen at k + 2 = 5 or more points
+    pts = rng.uniform(-1, 1, (12, 3))
+    d = Discrepancy([(p, 3.0 + 1.5 * p[0]) for p in pts])
+    assert d.kind == "gaussian process" and d.distinct == 12
+    mean, sd = d(np.array([0.5, 0.0, 0.0]))
+    assert mean == pytest.approx(3.75, abs=0.15) and sd < 0.5
+
+    class Flat:  # a cheap model that predicts 30 everywhere
+        factors, response, y = (), "r", np.array([30.0])
+
+        def predict(self, x):
+            x = np.asarray(x, float)
+            return np.full(len(x), 30.0) if x.ndim == 2 else 30.0
+
+        def gradient(self, x):
+            return np.zeros_like(np.asarray(x, float))
+
+    box0 = Box(0, (0.5, 0.3, 0.1), (0.7, 0.5, 0.3))
+    moved = Box(1, (0.6, 0.3, 0.1), (0.8, 0.5, 0.3))  # box 0 moved by one half-width... twice
+    surface = CorrectedSurface(Flat(), d, moved, box0)
+    # coded 0 in the moved box is coded +1 along the first factor of box 0
+    assert surface.predict(np.zeros(3)) == pytest.approx(30.0 + 3.0 + 1.5, abs=0.2)
+    assert surface.gradient(np.zeros(3))[0] == pytest.approx(1.5, abs=0.3)
+    assert surface.y[0] == pytest.approx(30.0 + d.bias)
