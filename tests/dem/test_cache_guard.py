@@ -35,3 +35,89 @@ def test_a_changed_kernel_clears_the_cache_and_touches_the_drivers(tmp_path, mon
     # the driver's time moved, so an entry a running process writes late, keyed on the
     # old time, is never loaded
     assert os.stat(here / "forces.py").st_mtime > old
+
+
+# --------------------------------------------------------------- where the cache lives --
+
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+from types import SimpleNamespace  # noqa: E402
+
+import demcal  # noqa: E402
+
+
+def test_the_cache_is_next_to_the_installed_packages(tmp_path, monkeypatch):
+    monkeypatch.setattr(sys, "prefix", str(tmp_path / "venv"))
+    assert demcal.numba_cache_dir() == str(tmp_path / "venv" / "numba-cache")
+
+
+def test_an_unwritable_prefix_falls_back_to_the_users_cache(tmp_path, monkeypatch):
+    prefix = str(tmp_path / "usr")
+    monkeypatch.setattr(sys, "prefix", prefix)
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(demcal, "_writable_folder", lambda path: not path.startswith(prefix))
+    assert demcal.numba_cache_dir() == str(tmp_path / "cache" / "demcal" / "numba-cache")
+    monkeypatch.setattr(demcal, "_writable_folder", lambda path: False)
+    assert demcal.numba_cache_dir() is None  # numba's own places then
+
+
+def test_writable_folder(tmp_path):
+    assert demcal._writable_folder(str(tmp_path / "not" / "yet"))
+    (tmp_path / "file").write_text("")
+    assert not demcal._writable_folder(str(tmp_path / "file" / "below"))
+
+
+def _cache_dir_of_a_fresh_process(env):
+    code = ("import os, sys, demcal, numba; "
+            "print(os.environ.get('NUMBA_CACHE_DIR')); print(numba.config.CACHE_DIR); print(sys.prefix)")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    return out
+
+
+def test_a_bare_process_uses_the_prefix_cache_and_a_set_variable_wins(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    chosen, numba_sees, prefix = _cache_dir_of_a_fresh_process(env)
+    assert chosen == numba_sees == os.path.join(prefix, "numba-cache")
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "mine")
+    chosen, numba_sees, _ = _cache_dir_of_a_fresh_process(env)
+    assert chosen == numba_sees == str(tmp_path / "mine")
+
+
+def test_numba_imported_first_still_sees_the_choice():
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    code = "import sys, numba, demcal; print(numba.config.CACHE_DIR); print(sys.prefix)"
+    numba_sees, prefix = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                        text=True, check=True).stdout.splitlines()
+    assert numba_sees == os.path.join(prefix, "numba-cache")
+
+
+# ------------------------------------------------------------ saying that it compiles --
+
+def _compile_event(module):
+    from numba.core import event
+
+    dispatcher = SimpleNamespace(py_func=SimpleNamespace(__module__=module))
+    return event.Event("numba:compile", event.EventStatus.START, data={"dispatcher": dispatcher})
+
+
+def test_compiling_an_engine_function_is_said_once(monkeypatch, capsys):
+    monkeypatch.setattr(_cache, "_announced", False)
+    _cache._announce(_compile_event("numpy.something"))   # not ours: nothing
+    assert capsys.readouterr().err == ""
+    _cache._announce(_compile_event("demcal.dem.forces"))
+    _cache._announce(_compile_event("demcal.dem.stepper"))
+    assert capsys.readouterr().err == _cache.COMPILING + "\n"
+
+
+def test_the_listener_is_registered_with_numba(monkeypatch, capsys):
+    from numba.core import event
+
+    _cache.announce_compilation()
+    _cache.announce_compilation()  # once
+    assert sum(type(listener).__name__ == "_FirstCompile"
+               for listener in event._registered["numba:compile"]) == 1
+    monkeypatch.setattr(_cache, "_announced", False)
+    event.broadcast(_compile_event("demcal.geometry.kernels"))
+    assert _cache.COMPILING in capsys.readouterr().err

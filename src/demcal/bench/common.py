@@ -54,9 +54,12 @@ defaults; every setting can be overridden in every profile.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
+import functools
 import math
 import time
-from dataclasses import dataclass
+from collections import deque
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -279,33 +282,178 @@ def skin_for(template) -> float:
 
 def make_simulation(s: Mapping[str, Any], materials, interactions, walls, dt: float,
                     gravity=(0.0, 0.0, -G), domain=None, skin=None):
-    """A Simulation with the settings' contact and rolling models and step ``dt`` [s]."""
+    """A Simulation with the settings' contact and rolling models and step ``dt`` [s].
+
+    While a test runs with its progress shown (:class:`Progress`), every run of the
+    simulation also reports to it (:func:`_reporting_simulation`).
+    """
     from demcal.dem import Simulation
 
-    return Simulation(materials, interactions, walls=walls, gravity=gravity, dt=dt,
-                      contact_model=s["contact.model"], rolling_model=s["rolling.model"],
-                      domain=domain, skin=skin)
+    progress = _PROGRESS.get()
+    shown = progress is not None and progress.enabled
+    cls = _reporting_simulation() if shown else Simulation
+    sim = cls(materials, interactions, walls=walls, gravity=gravity, dt=dt,
+              contact_model=s["contact.model"], rolling_model=s["rolling.model"],
+              domain=domain, skin=skin)
+    if shown:
+        sim.extra_reporters = (progress.reporter,)
+    return sim
 
 
-@dataclass
+@functools.cache
+def _reporting_simulation():
+    """A :class:`~demcal.dem.Simulation` that adds ``extra_reporters`` to every run."""
+    from demcal.dem import Simulation
+
+    class ReportingSimulation(Simulation):
+        extra_reporters = ()
+
+        def run(self, duration=None, steps=None, reporters=()):
+            return super().run(duration=duration, steps=steps,
+                               reporters=[*reporters, *self.extra_reporters])
+
+    return ReportingSimulation
+
+
+#: The :class:`Progress` of the test running in this thread (set by BenchExperiment.run).
+_PROGRESS: contextvars.ContextVar[Progress | None] = contextvars.ContextVar("progress", default=None)
+
+
+def _duration(seconds: float) -> str:
+    """``42 s``, ``3 min 05 s``, ``1 h 02 min``."""
+    s = int(round(seconds))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
+
+
+class _ProgressReporter:
+    """Hands the simulation to its :class:`Progress` at the end of every run; it asks for
+    no data in between, so it never cuts a run into pieces (the steps taken are the same
+    as without it)."""
+
+    def __init__(self, progress: Progress):
+        self.progress = progress
+
+    def next_report(self, sim) -> int:
+        return 1 << 62
+
+    def report(self, sim) -> None:
+        self.progress.update(sim)
+
+    def finish(self, sim) -> None:
+        self.progress.update(sim)
+
+
 class Progress:
-    """Prints one line per call when enabled (``demcal bench`` without ``--json``)."""
+    """What ``demcal bench`` says while a test runs (not with ``--json``).
 
-    enabled: bool = False
-    start: float = 0.0
+    The test's own messages, each on a line of its own after the wall time, and a
+    status line (:class:`demcal.dem.reporters.StatusLine`: rewritten in place on a
+    terminal, one plain line every ``log_interval`` seconds in a log) with
 
-    def __post_init__(self):
-        self.start = time.perf_counter()
+    * the simulated time ``t``;
+    * while the test runs towards a time limit (:func:`run_until`, which stops at
+      ``time.max_time`` at the latest but usually sooner, once the particles are at
+      rest), the share of that limit reached and the ETA to it, an upper bound;
+    * the wall time per simulated second (over the last 30 s);
+    * with a rest criterion (``time.rest_speed``), the rms speed of the particles
+      against it, which tells how far the heap is from rest.
+
+    Parameters
+    ----------
+    enabled : bool
+        Print anything at all.
+    rest_speed : float, optional
+        The test's rest criterion [m/s].
+    file : text file, optional
+        Default ``sys.stderr``.
+    log_interval : float, optional
+        Seconds between status lines when ``file`` is not a terminal (default
+        :attr:`LOG_INTERVAL`).
+    clock : callable
+        Wall clock [s].
+    """
+
+    #: Seconds between two status lines in a log.
+    LOG_INTERVAL = 10.0
+    #: Seconds of wall time the speed is averaged over.
+    WINDOW = 30.0
+
+    def __init__(self, enabled: bool = False, rest_speed: float | None = None, file=None,
+                 log_interval: float | None = None, clock=time.perf_counter):
+        self.enabled = bool(enabled)
+        self.rest_speed = rest_speed
+        self.clock = clock
+        self.start = clock()
+        self.limit: float | None = None
+        self.reporter = _ProgressReporter(self)
+        self._samples: deque[tuple[float, float]] = deque()
+        self._status = None
+        if self.enabled:
+            from demcal.dem.reporters import StatusLine
+
+            self._status = StatusLine(file, clock=clock, log_interval=(
+                self.LOG_INTERVAL if log_interval is None else log_interval))
+
+    def _stamp(self) -> str:
+        return f"  [{self.clock() - self.start:6.1f} s]"
 
     def __call__(self, text: str) -> None:
+        """A message of the test, kept on its own line."""
         if self.enabled:
-            import sys
+            self._status.message(f"{self._stamp()} {text}")
 
-            print(f"  [{time.perf_counter() - self.start:6.1f} s] {text}", file=sys.stderr, flush=True)
+    @contextlib.contextmanager
+    def time_limit(self, limit: float):
+        """Within the block the simulation runs towards ``limit`` [s] of simulated time."""
+        outer, self.limit = self.limit, float(limit)
+        try:
+            yield
+        finally:
+            self.limit = outer
+
+    def update(self, sim) -> None:
+        """Note the simulation's time; redraw the status when it is due."""
+        if not self.enabled:
+            return
+        now, t = self.clock(), float(sim.time)
+        self._samples.append((now, t))
+        while len(self._samples) > 2 and self._samples[1][0] < now - self.WINDOW:
+            self._samples.popleft()
+        if self._status.due():
+            self._status.update(self.status(sim))
+
+    def seconds_per_simulated_second(self) -> float | None:
+        """Wall time per simulated second over the last :attr:`WINDOW` seconds."""
+        (c0, t0), (c1, t1) = self._samples[0], self._samples[-1]
+        return (c1 - c0) / (t1 - t0) if t1 > t0 and c1 > c0 else None
+
+    def status(self, sim) -> str:
+        """The status text for ``sim`` now."""
+        t = float(sim.time)
+        parts = [f"{self._stamp()} t = {t:.3f} s"]
+        pace = self.seconds_per_simulated_second() if self._samples else None
+        if self.limit is not None and 0 < self.limit and t <= self.limit:
+            parts[0] += f" ({100.0 * t / self.limit:.0f} % of the {self.limit:g} s limit)"
+            if pace is not None:
+                parts.append(f"ETA at most {_duration((self.limit - t) * pace)}")
+        if pace is not None:
+            parts.append(f"{pace:.3g} s per simulated s")
+        if self.rest_speed is not None and getattr(sim, "n_particles", 0):
+            parts.append(f"rms speed {rms_speed(sim):.3g} m/s (rest < {self.rest_speed:g})")
+        return ", ".join(parts)
+
+    def close(self) -> None:
+        if self._status is not None:
+            self._status.close()
 
 
 class VtkWriter:
-    """Writes a frame every ``interval`` [s] of simulated time when enabled."""
+    """Writes a frame every ``interval`` [s] of simulated time when enabled (the point
+    data of :data:`demcal.io.vtk.STATE_FIELDS`)."""
 
     def __init__(self, out_dir, enabled: bool, interval: float, walls=None, name: str = "bench"):
         self.enabled = bool(enabled and out_dir is not None)
@@ -325,8 +473,7 @@ class VtkWriter:
             return
         st = sim.state
         if st.radii.size:
-            self.series.write(sim.time, st.sphere_positions.copy(), walls=self.walls,
-                              radius=st.radii.copy(), body_ids=st.sphere_body.copy())
+            self.series.write_state(sim.time, st, walls=self.walls)
         self.next_time = sim.time + self.interval
 
     @property
@@ -392,11 +539,20 @@ class BenchExperiment:
     def run(self, settings: Mapping[str, Any] | None = None, seed: int = 0, profile: str = "quick",
             out_dir: str | Path | None = None, vtk: bool = False, progress: bool = False) -> RunResult:
         """Simulate and measure; artifacts (PNG, VTK) go to ``out_dir`` if given."""
+        from demcal._checks import check_seed
+
         s = self.resolve(settings, profile)
+        seed = check_seed(seed, "seed")
         if out_dir is not None:
             Path(out_dir).mkdir(parents=True, exist_ok=True)
         start = time.perf_counter()
-        out = self._run(s, int(seed), out_dir, bool(vtk), Progress(bool(progress)))
+        shown = Progress(bool(progress), rest_speed=s.get("time.rest_speed"))
+        token = _PROGRESS.set(shown)
+        try:
+            out = self._run(s, int(seed), out_dir, bool(vtk), shown)
+        finally:
+            _PROGRESS.reset(token)
+            shown.close()
         return RunResult(test=self.name, responses=out["responses"], spread=out.get("spread", {}),
                          particles=int(out.get("particles", 0)), steps=int(out.get("steps", 0)),
                          simulated_s=float(out.get("simulated_s", 0.0)),
@@ -411,15 +567,17 @@ def run_until(sim, chunk: float, stop: Callable[[], bool], max_time: float,
     """Advance in ``chunk`` [s] pieces until ``stop()`` or ``sim.time >= max_time``.
 
     ``each()`` runs after every chunk (insertion, controllers, VTK). Returns whether
-    ``stop()`` became true.
+    ``stop()`` became true. The test's progress shows ``max_time`` as the limit.
     """
     steps = max(1, int(round(chunk / sim.dt)))
-    while sim.time < max_time:
-        sim.run(steps=steps)
-        if each is not None:
-            each()
-        if stop():
-            return True
+    progress = _PROGRESS.get()
+    with progress.time_limit(max_time) if progress is not None else contextlib.nullcontext():
+        while sim.time < max_time:
+            sim.run(steps=steps)
+            if each is not None:
+                each()
+            if stop():
+                return True
     return False
 
 

@@ -11,12 +11,19 @@ It also touches the engine's Python files then. A process started before the cha
 still compiles the old code, and may write it to the cache after the files were
 deleted; numba keys each cache index on the modification time of the file defining
 the functions, so with the new times such late entries are never loaded.
+
+The cache lives where ``NUMBA_CACHE_DIR`` says; importing :mod:`demcal` sets it when
+the user did not (:func:`demcal.numba_cache_dir`, ``<sys.prefix>/numba-cache``), so
+``make`` and a bare ``demcal`` share one cache. When numba has to compile one of the
+engine's functions (nothing in the cache yet, or the sources changed), :data:`COMPILING`
+is printed once per process on standard error, so that the wait is not silent.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
 from pathlib import Path
 
 _HERE = Path(__file__).resolve().parent
@@ -48,8 +55,51 @@ def _cache_dirs():
     return _HERE / "__pycache__", [d for d in dirs if d.is_dir()]
 
 
+#: Said once per process when numba compiles (rather than loads) an engine function.
+COMPILING = "demcal: compiling the engine (first run only, about 20 s)"
+_announced = False
+_listening = False
+
+
+def _announce(event) -> None:
+    """Print :data:`COMPILING` at the first compilation of a demcal function."""
+    global _announced
+    if _announced:
+        return
+    dispatcher = (event.data or {}).get("dispatcher")
+    module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+    if module.split(".")[0] != "demcal":
+        return
+    _announced = True
+    try:
+        print(COMPILING, file=sys.stderr, flush=True)
+    except (OSError, ValueError):  # no standard error (closed, detached)
+        pass
+
+
+def announce_compilation() -> None:
+    """Listen to numba's ``numba:compile`` events (numba fires them only when it
+    compiles, not when it loads from the cache) and print :data:`COMPILING` once."""
+    global _listening
+    if _listening:
+        return
+    from numba.core import event
+
+    class _FirstCompile(event.Listener):
+        def on_start(self, ev):
+            _announce(ev)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", _FirstCompile())
+    _listening = True
+
+
 def guard() -> None:
-    """Delete stale engine cache files when the engine sources changed."""
+    """Delete stale engine cache files when the engine sources changed, and announce
+    compilation (:func:`announce_compilation`)."""
+    announce_compilation()
     try:
         digest = _digest()
         base, dirs = _cache_dirs()

@@ -5,7 +5,8 @@ data), advances exactly that far, then calls ``report(sim)`` on the reporters th
 due. Optional ``start(sim, total_steps)`` and ``finish(sim)`` bracket a run. Reporters
 read ``sim.state`` and may change the simulation (add particles, tilt gravity) or raise
 to stop it. Progress, energy, blow-up detection, VTK output and checkpoints are
-reporters, not code inside the physics.
+reporters, not code inside the physics. :class:`StatusLine` is the one-line display
+that progress reporters write to: rewritten in place on a terminal, plain lines in a log.
 """
 
 from __future__ import annotations
@@ -130,6 +131,85 @@ def _is_terminal(file) -> bool:
         return False
 
 
+class StatusLine:
+    """One line of status that follows a run, with permanent messages above it.
+
+    On a terminal the status is rewritten in place (a carriage return, the text cut to
+    the terminal's width, then "erase to the end of the line") at most every
+    ``refresh`` seconds. Anywhere else (a log file, a pipe, a batch job) each status is
+    a plain line of its own, at most one every ``log_interval`` seconds and the first
+    after ``log_interval`` seconds, so a log gets no carriage returns and a short run
+    no status at all. :meth:`message` prints a line that stays (above the status on a
+    terminal).
+
+    Parameters
+    ----------
+    file : text file, optional
+        Where to write (default ``sys.stderr`` at construction).
+    log_interval : float
+        Seconds between two status lines when ``file`` is not a terminal.
+    refresh : float
+        Seconds between two redraws on a terminal.
+    clock : callable
+        Wall clock [s] (tests pass their own).
+    """
+
+    def __init__(self, file=None, log_interval=10.0, refresh=0.2, clock=_time.perf_counter):
+        import sys
+
+        self.file = sys.stderr if file is None else file
+        self.terminal = _is_terminal(self.file)
+        self.log_interval = float(log_interval)
+        self.refresh = float(refresh)
+        self.clock = clock
+        self._last = -math.inf if self.terminal else clock()
+        self._text = ""
+        self._shown = False  # a status is on the terminal's last line
+
+    def due(self) -> bool:
+        """Whether :meth:`update` would write now (build costly text only then)."""
+        wait = self.refresh if self.terminal else self.log_interval
+        return self.clock() - self._last >= wait
+
+    def update(self, text: str) -> None:
+        """Show ``text`` as the status, if it is time to (:meth:`due`)."""
+        self._text = text
+        if not self.due():
+            return
+        self._last = self.clock()
+        if self.terminal:
+            self._write("\r" + self._fit(text) + "\x1b[K")
+            self._shown = True
+        else:
+            self._write(text + "\n")
+
+    def message(self, text: str) -> None:
+        """Print ``text`` on a line of its own (the status, if shown, is drawn again below it)."""
+        if self.terminal and self._shown:
+            self._write("\r\x1b[K" + text + "\n" + self._fit(self._text) + "\x1b[K")
+        else:
+            self._write(text + "\n")
+
+    def close(self) -> None:
+        """Erase the status from the terminal (a log keeps its lines)."""
+        if self.terminal and self._shown:
+            self._write("\r\x1b[K")
+            self._shown = False
+
+    def _fit(self, text: str) -> str:
+        import shutil
+
+        width = shutil.get_terminal_size((100, 24)).columns - 1
+        return text if len(text) <= width else text[:max(0, width - 3)] + "..."
+
+    def _write(self, text: str) -> None:
+        try:
+            self.file.write(text)
+            self.file.flush()
+        except (OSError, ValueError):  # the reader went away: progress is not worth dying for
+            pass
+
+
 class ProgressReporter(Reporter):
     """tqdm progress bar with simulated time, ETA and particle-steps per second.
 
@@ -205,8 +285,10 @@ class CheckpointReporter(Reporter):
 class VTKReporter(Reporter):
     """Write spheres (and walls) as VTK PolyData frames plus a ``.pvd`` (ParaView).
 
-    Uses :class:`demcal.io.vtk.VtkSeries`. Each particle frame has the sphere centres
-    with ``radius``, ``velocity``, ``omega`` and ``body_id`` point data.
+    Uses :meth:`demcal.io.vtk.VtkSeries.write_state`. Each particle frame has the sphere
+    centres with the point data of :data:`demcal.io.vtk.STATE_FIELDS`: ``radius``,
+    ``id``, ``body_id``, ``velocity``, ``angular_velocity``, ``orientation``
+    (quaternion), ``force`` and ``material``.
     """
 
     def __init__(self, directory, interval, name="particles", walls=True):
@@ -221,12 +303,7 @@ class VTKReporter(Reporter):
         if self._series is None:
             os.makedirs(self.directory, exist_ok=True)
             self._series = VtkSeries(self.directory, name=self.name)
-        st = sim.state
-        body = st.sphere_body
-        self._series.write(sim.time, st.sphere_positions, radius=st.radii,
-                           velocity=st.velocities[body], body_ids=body,
-                           point_data={"omega": st.omegas[body]},
-                           walls=sim.walls if self.walls else None)
+        self._series.write_state(sim.time, sim.state, walls=sim.walls if self.walls else None)
 
     @property
     def pvd_path(self):

@@ -15,13 +15,25 @@ Sources
 * Montgomery, D.C. *Design and Analysis of Experiments*, 8th ed., Wiley 2013:
   Sec. 8.2-8.7 (fractional factorials, Table 8.14 generators), Sec. 11.2 (steepest
   ascent), Sec. 11.4 (CCD alpha for rotatability and orthogonal blocking).
+
+pyDOE3
+------
+The matrices come from pyDOE3 wherever it builds the published design: ``fullfact``
+(full factorials), ``ff2n`` (two-level factorials), ``fracfact`` (fractional
+factorials), ``bbdesign`` (Box-Behnken, k = 3..5) and ``star`` (the axial runs of a
+central composite design). Its rows are put into the standard order above, which is
+part of a campaign's run keys (a stored campaign stays valid only while every design
+is identical run for run; ``tests/doe`` checks that against the matrices demcal
+produced before pyDOE3 was used). demcal's own construction is kept where pyDOE3 gives
+another design: Box-Behnken at k = 6 and 7, Plackett-Burman, and the orthogonal CCD
+alpha (reasons at each).
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 import numbers
+import string
 
 import numpy as np
 
@@ -95,10 +107,38 @@ BOX_BEHNKEN_BLOCKS: dict[int, tuple[tuple[int, ...], ...]] = {
 BOX_BEHNKEN_RUNS = {3: 12, 4: 24, 5: 40, 6: 48, 7: 56}
 
 
+def _pydoe3():
+    """The pyDOE3 package, imported on first use (it loads scipy.stats, about 0.5 s that
+    commands which build no design need not pay)."""
+    import pyDOE3
+
+    return pyDOE3
+
+
 def _two_level_full(m: int) -> np.ndarray:
-    """2^m factorial in Yates standard order (first column changes fastest)."""
-    rows = itertools.product((-1.0, 1.0), repeat=m)
-    return np.array([r[::-1] for r in rows], dtype=float)
+    """2^m factorial in Yates standard order (first column changes fastest): pyDOE3's
+    ``ff2n`` (whose last column changes fastest in pyDOE3 1.6) with its rows sorted."""
+    design = np.asarray(_pydoe3().ff2n(m), dtype=float)
+    return np.ascontiguousarray(design[np.argsort(_yates_index(design), kind="stable")])
+
+
+def _yates_index(signs: np.ndarray) -> np.ndarray:
+    """Position of each row of a +-1 matrix in Yates order (first column fastest)."""
+    return ((signs > 0) * (1 << np.arange(signs.shape[1]))).sum(axis=1)
+
+
+def _in_block_order(matrix: np.ndarray, blocks) -> np.ndarray:
+    """Box-Behnken rows sorted into the order of ``blocks`` (1-based factors varied
+    together), Yates order within a block, centre runs last."""
+    rank = {tuple(sorted(b)): i for i, b in enumerate(blocks)}
+
+    def key(row):
+        varied = np.flatnonzero(row)
+        if not varied.size:
+            return (len(blocks), 0)
+        return (rank[tuple(varied + 1)], int(_yates_index(row[None, varied])[0]))
+
+    return matrix[sorted(range(len(matrix)), key=lambda i: key(matrix[i]))]
 
 
 def box_behnken(k: int, center: int = 5) -> np.ndarray:
@@ -119,9 +159,12 @@ def box_behnken(k: int, center: int = 5) -> np.ndarray:
 
     Notes
     -----
-    pyDOE3's ``bbdesign`` pairs every two factors for any k, which gives 60 runs at
-    k = 6 and 84 at k = 7 instead of the published 48 and 56; the published incomplete
-    block designs are used here.
+    k = 3..5: pyDOE3's ``bbdesign`` (every pair of factors once), its rows put into the
+    block order of :data:`BOX_BEHNKEN_BLOCKS` (Design-Expert's standard order).
+    k = 6, 7: demcal's own construction from the published blocks. pyDOE3's
+    ``bbdesign`` pairs every two factors for any k, which gives 60 runs at k = 6 and 84
+    at k = 7 instead of the published 48 and 56 (Box & Behnken 1960 use blocks of three
+    factors there); it is not the Box-Behnken design at those k.
     """
     if k not in BOX_BEHNKEN_BLOCKS:
         raise ConfigError(f"Box-Behnken designs exist for 3 to 7 factors, not {k}.")
@@ -129,6 +172,10 @@ def box_behnken(k: int, center: int = 5) -> np.ndarray:
     check_run_count(BOX_BEHNKEN_RUNS[k] + center,
                     f"a Box-Behnken design of {k} factors with {center:,} centre points",
                     "use fewer centre points")
+    if k <= 5:
+        design = _pydoe3().bbdesign(k, center=center).astype(float)
+        return np.ascontiguousarray(_in_block_order(design, BOX_BEHNKEN_BLOCKS[k]))
+    # k = 6, 7: pyDOE3 gives the all-pairs design (60, 84 runs), not the published one
     rows = []
     for block in BOX_BEHNKEN_BLOCKS[k]:
         sub = _two_level_full(len(block))
@@ -171,9 +218,10 @@ def full_factorial(levels) -> np.ndarray:
     else:
         what = f"a full factorial at {' x '.join(map(str, levels))} levels"
     check_run_count(runs, what, "use fewer levels or factors, or a fractional design")
+    # pyDOE3's fullfact: level indices 0..n-1, first factor fastest (the standard order)
+    index = _pydoe3().fullfact(levels).astype(np.intp)
     grids = [np.linspace(-1.0, 1.0, n) for n in levels]
-    rows = itertools.product(*grids[::-1])
-    return np.array([r[::-1] for r in rows], dtype=float)
+    return np.column_stack([grid[index[:, j]] for j, grid in enumerate(grids)])
 
 
 #: Standard generators of 2^(k-p) fractions (Montgomery 2013, Table 8.14), letters
@@ -283,14 +331,15 @@ def fractional_factorial(k: int, p: int | None = None, generators=None) -> np.nd
             )
         words[word] = g
         parsed[lhs] = (sign, rhs, g)
-    design = np.zeros((2**base, k))
-    design[:, :base] = _two_level_full(base)
-    for lhs, (sign, rhs, _) in parsed.items():
-        col = np.ones(2**base) * sign
-        for c in rhs:
-            col *= design[:, letters.index(c)]
-        design[:, letters.index(lhs)] = col
-    return design
+    # pyDOE3's fracfact names the base factors a, b, c, ... (our letters skip I) and lists
+    # its base runs with the last base factor fastest: put them into Yates order
+    name = {letter: string.ascii_lowercase[i] for i, letter in enumerate(letters)}
+    spec = [name[c] for c in letters[:base]]
+    for lhs in letters[base:]:
+        sign, rhs, _ = parsed[lhs]
+        spec.append(("-" if sign < 0 else "") + "".join(name[c] for c in rhs))
+    design = _pydoe3().fracfact(" ".join(spec)).astype(float)
+    return np.ascontiguousarray(design[np.argsort(_yates_index(design[:, :base]), kind="stable")])
 
 
 # ---------------------------------------------------------------------------------------
@@ -300,6 +349,11 @@ def fractional_factorial(k: int, p: int | None = None, generators=None) -> np.nd
 #: First rows of the cyclic Plackett-Burman designs (Plackett & Burman 1946, as
 #: tabulated in Montgomery 2013, Table 8.23). Runs 2..N-1 are cyclic shifts of the
 #: first row; run N is all minus.
+#:
+#: demcal's own construction: pyDOE3's ``pbdesign`` builds other Hadamard matrices
+#: (Paley and Sylvester constructions, not these cyclic tables: not one of its 8- to
+#: 24-run designs has the published rows, in any order), always takes the smallest run
+#: count (no 16 runs for 5 factors) and gives 4 runs for 3 factors.
 PLACKETT_BURMAN_GENERATORS: dict[int, str] = {
     8: "+++-+--",
     12: "++-+++---+-",
@@ -358,6 +412,11 @@ def ccd_alpha(k: int, kind: str = "rotatable", center: int = 0, fraction_p: int 
     * ``"orthogonal"``: alpha = [F (sqrt(N) - sqrt(F))^2 / 4]^(1/4), N the total run count,
       which makes the quadratic terms uncorrelated (Montgomery 2013, Sec. 11.4.2).
     * ``"face"``: alpha = 1.
+
+    demcal's own formulas: pyDOE3's ``star`` has the same rotatable alpha for a full
+    factorial but none for a fractional one, and its ``"orthogonal"`` alpha,
+    sqrt(k (1 + n_a0 / 2k) / (1 + n_c0 / F)), is the one for orthogonal blocking
+    (centre runs split between the factorial and axial blocks), not this one.
     """
     f = 2 ** (k - fraction_p)
     if kind == "rotatable":
@@ -398,6 +457,15 @@ def central_composite(
     numpy.ndarray
         Factorial rows, then axial rows (-alpha, +alpha for each factor in turn), then
         centre rows.
+
+    Notes
+    -----
+    Built from pyDOE3's parts, with the alpha of :func:`ccd_alpha`: the two-level
+    factorial (``ff2n``, or ``fracfact`` through :func:`fractional_factorial`) and the
+    axial runs of ``star`` at alpha 1, scaled. For a full factorial part with a
+    rotatable or face-centred alpha this is pyDOE3's ``ccdesign(k, center=(0, c))``
+    with the factorial rows in Yates order; ``ccdesign`` itself has no fractional part,
+    no numeric alpha and another "orthogonal" alpha.
     """
     if k < 2:
         raise ConfigError("a central composite design needs at least two factors.")
@@ -431,10 +499,7 @@ def central_composite(
         if not (math.isfinite(a) and a > 0):
             raise ConfigError(f"the CCD axial distance alpha must be a positive number, not {alpha!r}.")
     fact = fractional_factorial(k, fraction_p) if fraction_p else _two_level_full(k)
-    axial = np.zeros((2 * k, k))
-    for i in range(k):
-        axial[2 * i, i] = -a
-        axial[2 * i + 1, i] = a
+    axial = _pydoe3().doe_star.star(k, alpha="faced")[0] * a  # -1, +1 per factor in turn
     design = np.vstack([fact, axial, np.zeros((center, k))])
     if kind == "inscribed":
         design = design / a

@@ -4,6 +4,10 @@ series as a collection (.pvd).
 * :func:`write_particles` -- one point (and one vertex cell) per sphere with point data
   ``radius`` [m], ``velocity`` [m/s], ``id``, ``body_id`` and any extra arrays; in
   ParaView apply *Glyph* (sphere, scale by ``radius``, scale factor 2) to see balls.
+* :func:`particle_fields` -- the point data of a simulation's state (:data:`STATE_FIELDS`:
+  radius, ids, velocity, angular velocity, orientation, force, material), which
+  :meth:`VtkSeries.write_state` writes (the engine's ``VTKReporter`` and the benches'
+  ``--vtk``).
 * :func:`write_triangles` / :func:`write_walls` -- triangle surfaces with cell data
   ``group`` (wall group index) and any extra per-triangle arrays;
 * :func:`write_pvd` and :class:`VtkSeries` -- the time series, one ``DataSet`` per part
@@ -30,6 +34,8 @@ import numpy as np
 from demcal.errors import DataError
 
 __all__ = [
+    "STATE_FIELDS",
+    "particle_fields",
     "write_particles",
     "write_triangles",
     "write_walls",
@@ -50,6 +56,20 @@ _VTK_TYPES = {
     np.dtype(np.uint64): "UInt64",
 }
 _NUMPY_TYPES = {v: k for k, v in _VTK_TYPES.items()}
+
+#: Point data of a simulation frame (:func:`particle_fields`): name, components, unit,
+#: meaning. One point per sphere; a multi-sphere particle's spheres share its values.
+STATE_FIELDS = (
+    ("radius", 1, "m", "sphere radius"),
+    ("id", 1, "-", "sphere index"),
+    ("body_id", 1, "-", "index of the particle (rigid body) the sphere belongs to"),
+    ("velocity", 3, "m/s", "velocity of the particle's centre of mass"),
+    ("angular_velocity", 3, "rad/s", "angular velocity of the particle, world frame"),
+    ("orientation", 4, "-", "unit quaternion (w, x, y, z) turning the particle's principal "
+     "frame into the world frame"),
+    ("force", 3, "N", "total force on the particle at the last step (contacts and gravity)"),
+    ("material", 1, "-", "material index of the particle"),
+)
 _ENCODINGS = ("binary", "ascii")
 
 
@@ -196,6 +216,35 @@ def write_particles(
     return _atomic_write(Path(path), _polydata(pts, verts=verts, point_data=data, time=time, encoding=encoding))
 
 
+def particle_fields(state) -> dict[str, np.ndarray]:
+    """The point data of :data:`STATE_FIELDS` (but ``id``, which
+    :func:`write_particles` adds) for the spheres of ``state``.
+
+    Parameters
+    ----------
+    state : demcal.dem.State
+        A simulation's state (``sim.state``): per-particle ``velocities``, ``omegas``,
+        ``quaternions``, ``forces``, ``materials`` and per-sphere ``radii``,
+        ``sphere_body``.
+
+    Returns
+    -------
+    dict
+        Arrays with one row per sphere, the particle's values repeated on each of its
+        spheres.
+    """
+    body = np.asarray(state.sphere_body, dtype=np.int64)
+    return {
+        "radius": np.asarray(state.radii, np.float64),
+        "body_id": body,
+        "velocity": np.asarray(state.velocities, np.float64)[body],
+        "angular_velocity": np.asarray(state.omegas, np.float64)[body],
+        "orientation": np.asarray(state.quaternions, np.float64)[body],
+        "force": np.asarray(state.forces, np.float64)[body],
+        "material": np.asarray(state.materials, np.int32)[body],
+    }
+
+
 def write_triangles(
     path, points, triangles, cell_data: Mapping | None = None, time: float | None = None, encoding: str = "binary"
 ) -> Path:
@@ -270,11 +319,20 @@ class VtkSeries:
     def pvd_path(self) -> Path:
         return self.folder / f"{self.name}.pvd"
 
-    def write(self, time: float, positions, walls=None, wall_data: Mapping | None = None, **particle_fields) -> Path:
-        """Write one frame; ``particle_fields`` go to :func:`write_particles`."""
+    def write_state(self, time: float, state, walls=None, wall_data: Mapping | None = None) -> Path:
+        """Write one frame of a simulation: its spheres with the point data of
+        :func:`particle_fields` (:data:`STATE_FIELDS`), and ``walls``."""
+        fields = particle_fields(state)
+        radius, body = fields.pop("radius"), fields.pop("body_id")
+        return self.write(time, state.sphere_positions, walls=walls, wall_data=wall_data,
+                          radius=radius, velocity=fields.pop("velocity"), body_ids=body,
+                          point_data=fields)
+
+    def write(self, time: float, positions, walls=None, wall_data: Mapping | None = None, **fields) -> Path:
+        """Write one frame; ``fields`` go to :func:`write_particles`."""
         k = self.frames
         pfile = f"{self.name}_particles_{k:06d}.vtp"
-        write_particles(self.folder / pfile, positions, time=time, encoding=self.encoding, **particle_fields)
+        write_particles(self.folder / pfile, positions, time=time, encoding=self.encoding, **fields)
         self.entries.append((time, pfile, 0))
         if walls is not None and len(walls):
             if walls.moving or self._walls_file is None or wall_data:
