@@ -42,3 +42,82 @@ def and_list(words) -> str:
     """``a``, ``a and b``, ``a, b and c``: a list of words for a message."""
     words = [str(w) for w in words]
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+# --------------------------------------------------------------------------- seeds and workers
+
+#: Every random seed demcal takes lies in ``0 .. MAX_SEED``: 2^63 - 1, the largest whole
+#: number the campaign store (SQLite INTEGER) holds; numpy seeds with any of them.
+MAX_SEED = 2**63 - 1
+
+
+def check_seed(value, name: str) -> int:
+    """``value`` as a seed in ``0 .. MAX_SEED``, or a ConfigError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(f"{name} must be a whole number from 0 to 2^63 - 1, got {value!r}.")
+    if not 0 <= value <= MAX_SEED:
+        raise ConfigError(f"{name} must lie in 0 .. 2^63 - 1 ({MAX_SEED}), got {value}.")
+    return value
+
+
+def check_workers(value, name: str = "--workers") -> int:
+    """``value`` as a worker count: 1 or more, or 0 for one per CPU core."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ConfigError(f"{name} must be 1 or more, or 0 for one per core, got {value!r}.")
+    return value
+
+
+# --------------------------------------------------------------------------- input files
+
+#: The most demcal reads of each kind of input file [bytes]: a campaign or lab file is a
+#: few kB, a run table of the largest design (100,000 runs) a few MB, a camera photo
+#: tens of MB. A larger file (or a device such as /dev/zero) is refused, not read until
+#: memory runs out.
+MAX_TOML_BYTES = 1 << 20
+MAX_CSV_BYTES = 64 << 20
+MAX_PHOTO_BYTES = 256 << 20
+
+
+def format_bytes(n: int) -> str:
+    """``1 MiB``, ``64 MiB``, ``512 kiB``: a size for a message."""
+    for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("kiB", 1 << 10)):
+        if n >= size:
+            return f"{n / size:g} {unit}"
+    return f"{n} bytes"
+
+
+def read_limited(path, limit: int, what: str, error=ConfigError) -> bytes:
+    """The bytes of the file ``path``, refused with ``error`` (naming ``what``, the path
+    and ``limit``) when it holds more than ``limit`` bytes; at most ``limit + 1`` bytes
+    are ever read, so a device or a growing file cannot exhaust memory. File-system
+    errors (missing file, a folder, no permission) are raised as :class:`OSError`."""
+    import os
+
+    with open(path, "rb") as fh:
+        try:
+            size = os.fstat(fh.fileno()).st_size
+        except OSError:  # pragma: no cover - every open file has a status
+            size = 0
+        data = fh.read(limit + 1) if size <= limit else b""
+    if size > limit or len(data) > limit:
+        raise error(f"{what} '{path}' holds more than {format_bytes(limit)}, the most demcal reads "
+                    f"for a {what}; check that it is the right file.")
+    return data
+
+
+def control_character(text: str) -> tuple[int, str] | None:
+    """``(line, character)`` of the first control character of ``text`` that text files do
+    not hold (anything below U+0020 but tab, newline, carriage return and form feed,
+    and DEL), or None: what tells a binary file from a text one."""
+    import re
+
+    found = re.search(r"[\x00-\x08\x0b\x0e-\x1f\x7f]", text)
+    if found is None:
+        return None
+    return text.count("\n", 0, found.start()) + 1, found.group()
+
+
+def printable(text: str, limit: int = 80) -> str:
+    """``text`` for a message: control characters as ``\\xNN``, cut to ``limit`` characters."""
+    out = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in str(text))
+    return out if len(out) <= limit else out[: limit - 3] + "..."

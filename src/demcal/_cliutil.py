@@ -45,11 +45,20 @@ def add_model_options(parser: argparse.ArgumentParser, factors_help: str, factor
 
 def read_runs_from_args(args, responses: list[str]):
     """The runs CSV ``args.runs_csv`` coded with the ``--factor`` levels, restricted to
-    the ``--factors`` columns where that option exists and is given."""
+    the ``--factors`` columns where that option exists and is given; a response with
+    the same value in every run is refused."""
     from demcal.doe.factors import parse_factor
     from demcal.rsm.data import read_runs
+
+    from demcal.errors import DataError
 
     factors = getattr(args, "factors", None)
     names = [s.strip() for s in factors.split(",") if s.strip()] if factors else None
     levels = {f.name: f for f in (parse_factor(s) for s in args.factor)}
-    return read_runs(args.runs_csv, responses, names, levels)
+    runs = read_runs(args.runs_csv, responses, names, levels)
+    for name in responses:  # nothing to fit: one sentence rather than NaN statistics or a division by zero
+        y = runs.responses[name]
+        if y.size and y.min() == y.max():
+            raise DataError(f"response {name!r} of {args.runs_csv} has the same value ({y[0]:g}) in all "
+                            f"{y.size} runs, so there is no surface to fit; check that column.")
+    return runs

@@ -58,6 +58,7 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     try:
         _check_out_folder(getattr(args, "out", None))
+        _check_seed_and_workers(args)
         return int(args.func(args) or 0)
     except DemcalError as exc:
         print(f"demcal: error: {exc}", file=sys.stderr)
@@ -106,6 +107,17 @@ def _quiet_broken_pipe() -> int:
     except (OSError, ValueError):  # pragma: no cover - no file descriptor behind stdout
         pass
     return BROKEN_PIPE_STATUS
+
+
+def _check_seed_and_workers(args) -> None:
+    """The same rule for every command: ``--seed`` in 0 .. 2^63 - 1, ``--workers`` 1 or
+    more or 0 for one per core."""
+    from demcal._checks import check_seed, check_workers
+
+    if getattr(args, "seed", None) is not None:
+        check_seed(args.seed, "--seed")
+    if getattr(args, "workers", None) is not None:
+        check_workers(args.workers, "--workers")
 
 
 def _check_out_folder(out) -> None:

@@ -18,6 +18,12 @@ HERE = Path(__file__).resolve().parent
 if str(HERE) not in sys.path:
     sys.path.insert(0, str(HERE))
 
+# Reading a campaign file never imports its plugins (only `demcal run`, `calibrate` and
+# `demo` do, with load_campaign(..., import_plugins=True)); the tests that load the
+# test doubles' campaigns directly find them registered in this process.
+import campaign_testbench  # noqa: E402,F401  registers test-heap
+import loop_testbench  # noqa: E402,F401  registers the loop's fidelity double
+
 #: The paper's repose factors (Table 3): name, setting, level -1, level +1.
 FACTORS = (
     ("A", "particle.restitution", 0.5, 0.7),

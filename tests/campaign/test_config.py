@@ -186,3 +186,66 @@ def test_design_counts_must_be_whole_numbers(campaign_file, new, shown):
     message = str(info.value)
     assert "must be a whole number of at least" in message and f"got {shown};" in message
     assert "\n" not in message and message.endswith("."), message
+
+
+# --------------------------------------------------------------------------- issue 20: limits
+
+def test_the_largest_allowed_seed_plans_and_stores(campaign_file):
+    """Seeds lie in 0 .. 2^63 - 1 with every run seed derived from them: the largest
+    [runs] seed the file allows plans runs the store takes (2^63 - 1 itself raised
+    OverflowError in the store and left it empty)."""
+    from demcal.campaign.runner import open_store, plan_design
+
+    with pytest.raises(ConfigError) as info:
+        load_campaign(campaign_file(replace={"seed = 7": f"seed = {2**63 - 1}"}))
+    top = int(str(info.value).rsplit("at most ", 1)[1].rstrip("."))
+    campaign = load_campaign(campaign_file(replace={"seed = 7": f"seed = {top}"}))
+    specs = plan_design(campaign).specs
+    assert top < max(s.seed for s in specs) <= 2**63 - 1
+    with open_store(campaign) as store:
+        store.add(specs)
+        assert store.counts()["pending"] == len(specs)
+
+
+def test_replicates_times_design_runs_are_capped(campaign_file):
+    """29 design runs x 3,448 replicates = 99,992 runs is allowed; one more replicate is
+    refused by the loader with the run count (20,000 replicates built 580,000 rows)."""
+    assert load_campaign(campaign_file(replace={"seed = 7": "seed = 7\nreplicates = 3448"})).replicates == 3448
+    path = campaign_file(replace={"seed = 7": "seed = 7\nreplicates = 3449"})
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    assert str(info.value) == (
+        f"campaign.toml line {line_of(path, 'replicates = 3449')}: 29 design runs x 3,449 replicates has "
+        "100,021 runs, more than the 100,000 a design may have (every run is a DEM simulation); use fewer "
+        "replicates.")
+
+
+# --------------------------------------------------------------------------- issue 20: plugins
+
+def test_reading_a_file_imports_no_plugin(campaign_file, tmp_path, monkeypatch):
+    """A test only a plugin registers is refused by name when the file is just read
+    (report, export); run and calibrate import the plugin from the campaign folder."""
+    import sys
+
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    (tmp_path / "heap_plugin_20.py").write_text(
+        "from pathlib import Path\n"
+        "Path(__file__).with_name('imported').write_text('yes')\n"
+        "import campaign_testbench\n"
+        "from demcal.bench.registry import register\n"
+        "class Heap(campaign_testbench.HeapDouble):\n    name = 'heap-20'\n"
+        "register(Heap())\n")
+    path = campaign_file(replace={'test = "test-heap"': 'test = "heap-20"',
+                                  'plugins = ["campaign_testbench"]': 'plugins = ["heap_plugin_20"]'})
+    try:
+        with pytest.raises(ConfigError) as info:
+            load_campaign(path)
+        message = str(info.value)
+        assert message.startswith(f"campaign.toml line {line_of(path, 'heap-20')}: unknown virtual test 'heap-20'")
+        assert "plugins that may register it (heap_plugin_20) are imported only by" in message
+        assert not (tmp_path / "imported").exists()
+        campaign = load_campaign(path, import_plugins=True)
+        assert campaign.test == "heap-20" and (tmp_path / "imported").read_text() == "yes"
+        assert str(tmp_path) in sys.path  # where spawned workers find it too
+    finally:
+        sys.modules.pop("heap_plugin_20", None)

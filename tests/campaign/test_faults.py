@@ -465,7 +465,7 @@ def test_a_run_that_kills_its_worker_twice_fails_with_its_cause(campaign_file, m
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join([str(tmp_path), os.environ["PYTHONPATH"]]))
     path = campaign_file(replace={'test = "test-heap"': 'test = "test-heap-dying"',
                                   'plugins = ["campaign_testbench"]': 'plugins = ["campaign_testbench", "dying_testbench"]'})
-    campaign = load_campaign(path)
+    campaign = load_campaign(path, import_plugins=True)  # it runs simulations: it imports the plugins
     monkeypatch.setenv("DEMCAL_TEST_DIE_SEED", str(campaign.seed + 9))
     summary = run_campaign(campaign, workers=2, progress=False)
     assert (summary.done, summary.failed) == (28, 1), summary.failures

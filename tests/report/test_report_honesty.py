@@ -170,3 +170,36 @@ def test_stale_calibration_json_says_what_to_run(built, tmp_path):
         saved.unlink()
     assert "calibration.json is out of date" in text and "6.26 %" in text
     assert f"Run `demcal calibrate {campaign.path} --profile tiny` to solve and verify them again" in text
+
+
+def test_the_plugins_a_campaign_names_are_in_the_report(built):
+    """Issue 20: plugins run code, so the report names them (and imports none itself)."""
+    text = _text(built[3])
+    assert "Plugins named by the campaign file: campaign_testbench" in text
+    assert "`demcal report` imports none" in text
+
+
+def test_a_reference_table_is_read_and_re_analysed(built, tmp_path):
+    """Issue 20: `[report] reference_table` was checked for existence and never read; a
+    campaign that is not one of the paper's studies gets its table fitted with its own
+    model, and a table that does not fit it is one sentence before anything is written."""
+    import dataclasses
+    import shutil
+
+    from demcal.errors import DataError
+    from demcal.report.campaign_report import write_report
+
+    campaign, cal, _, _ = built
+    table = tmp_path / "published.csv"
+    shutil.copy(Path(__file__).resolve().parents[2] / "examples" / "residual-film-soil" /
+                "paper_table4_repose_bbd.csv", table)
+    with_table = dataclasses.replace(campaign, reference_table=table)
+    page = write_report(with_table, tmp_path / "report", [cal], figure_files=False).read_text()
+    assert "Reference table re-analysed: published.csv" in _text(page)
+    anova = pd.read_csv(tmp_path / "report" / "tables" / f"reference_{RESPONSE}_anova.csv", index_col=0)
+    assert anova.loc["Cor Total", "df"] == 28  # the table's 29 runs
+    table.write_text("user:x:0:0:root:/root:/bin/bash\nbin:x:1:1::/:\n")
+    with pytest.raises(DataError, match=r"^\[report\] reference_table of campaign.toml: .*published.csv has no "
+                                         r"column 'repose_angle_deg'"):
+        write_report(with_table, tmp_path / "again", [cal], figure_files=False)
+    assert not (tmp_path / "again").exists()

@@ -7,7 +7,6 @@ import sys
 from pathlib import Path
 
 from demcal._cliutil import add_command
-from demcal.errors import ConfigError
 
 
 def register(subparsers) -> None:
@@ -59,11 +58,15 @@ def _common(parser: argparse.ArgumentParser,
     parser.add_argument("campaign", type=Path, help="campaign file (TOML)")
     parser.add_argument("--profile", help=profile_help)
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="accept a workdir, lab file, photos or reference_table outside the campaign "
+                             "file's folder (refused by default)")
 
 
 def _execution(parser: argparse.ArgumentParser, scheduler: bool = True) -> None:
     parser.add_argument("--workers", type=int, metavar="N",
-                        help="worker processes (default: the file's [executor] workers, else one per core)")
+                        help="worker processes, 0 for one per core (default: the file's [executor] workers, "
+                             "else one per core)")
     if scheduler:
         parser.add_argument("--scheduler", metavar="ADDRESS",
                             help="run on the Dask cluster of this scheduler, e.g. tcp://host:8786 "
@@ -72,7 +75,9 @@ def _execution(parser: argparse.ArgumentParser, scheduler: bool = True) -> None:
                                  "--workers is ignored (the cluster's worker threads count)")
 
 
-def _load(args):
+def _load(args, simulate: bool):
+    """The campaign file of ``args``; the plugins it names are imported only by commands
+    that run simulations (``simulate``), never by ``report``."""
     from demcal.campaign.config import load_campaign
 
     scheduler = getattr(args, "scheduler", None)
@@ -80,18 +85,16 @@ def _load(args):
         from demcal.campaign.executors import check_scheduler_address
 
         check_scheduler_address(scheduler)
-    campaign = load_campaign(args.campaign)
+    campaign = load_campaign(args.campaign, import_plugins=simulate, allow_outside=args.allow_outside)
     if args.profile:
         campaign = campaign.with_profile(args.profile)
-    if getattr(args, "workers", None) is not None and args.workers < 0:
-        raise ConfigError(f"--workers must be 0 (one per core) or more, got {args.workers}.")
     return campaign
 
 
 def _run(args) -> int:
     from demcal.campaign.runner import run_campaign
 
-    campaign = _load(args)
+    campaign = _load(args, simulate=True)
     summary = run_campaign(campaign, workers=args.workers, scheduler=args.scheduler,
                            retry_failed=args.retry_failed, progress=not args.quiet)
     for label, error in summary.failures[:10]:
@@ -105,7 +108,7 @@ def _run(args) -> int:
 def _calibrate(args) -> int:
     from demcal.campaign.calibrate import calibrate, describe
 
-    campaign = _load(args)
+    campaign = _load(args, simulate=True)
     if args.production:
         import dataclasses
 
@@ -121,7 +124,7 @@ def _calibrate(args) -> int:
 def _report(args) -> int:
     from demcal.report.campaign_report import write_report
 
-    campaign = _load(args)
+    campaign = _load(args, simulate=False)
     path = write_report(campaign, out=args.out)
     print(f"Report: {path}")
     return 0

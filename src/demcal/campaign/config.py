@@ -27,6 +27,16 @@ example)::
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table
+
+Paths in the file (``workdir``, ``lab``, a condition's ``photo``, the lab record's
+photos, ``reference_table``) are taken relative to the campaign file's folder and must
+lie inside it, unless the loader is told ``allow_outside`` (``--allow-outside`` on the
+command line). Input files are read with a size limit (:data:`demcal._checks.MAX_TOML_BYTES`
+for the campaign and lab files). ``plugins`` are modules that register extra virtual
+experiments: they are only named while the file is read, and imported only when the
+caller asks for it (``import_plugins=True``: ``demcal run``, ``calibrate`` and ``demo``,
+which run simulations; never ``demcal report`` or ``export``), from the campaign's
+folder or the installed packages.
 """
 
 from __future__ import annotations
@@ -34,13 +44,17 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import importlib
+import importlib.util
 import math
+import os
 import re
+import sys
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
+from demcal._checks import MAX_SEED, MAX_TOML_BYTES, read_limited
 from demcal.doe.factors import Factor as CodedFactor
 from demcal.doe.factors import default_names
 from demcal.errors import ConfigError
@@ -199,30 +213,117 @@ class Campaign:
         return dataclasses.replace(self, workdir=Path(workdir))
 
 
-def load_campaign(path: str | Path) -> Campaign:
-    """Read and check a campaign file; raise :class:`ConfigError` on the first mistake."""
+def load_campaign(path: str | Path, *, import_plugins: bool = False, allow_outside: bool = False) -> Campaign:
+    """Read and check a campaign file; raise :class:`ConfigError` on the first mistake.
+
+    Parameters
+    ----------
+    path : the campaign file (TOML, at most :data:`demcal._checks.MAX_TOML_BYTES`).
+    import_plugins : import the modules of ``[experiment] plugins`` (see
+        :func:`import_plugins`) before the virtual test is looked up; only for callers
+        that run simulations. Without it nothing of the campaign's is imported, and a
+        test that only a plugin provides is refused by name.
+    allow_outside : accept paths (``workdir``, ``lab``, photos, ``reference_table``)
+        outside the campaign file's folder.
+    """
     path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"'{path}' is a folder; give the campaign file (TOML) itself.")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = _decode(read_limited(path, MAX_TOML_BYTES, "campaign file"), path.name)
     except FileNotFoundError:
         raise ConfigError(f"campaign file '{path}' does not exist.") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read campaign file '{path}': {exc}.") from None
-    return parse_campaign(text, path)
+    except OSError as exc:
+        raise ConfigError(f"cannot read campaign file '{path}': {exc.strerror or exc}.") from None
+    return parse_campaign(text, path, import_plugins=import_plugins, allow_outside=allow_outside)
 
 
-def parse_campaign(text: str, path: str | Path = "campaign.toml") -> Campaign:
-    """Check ``text`` (the contents of the campaign file ``path``) into a :class:`Campaign`."""
-    return _Loader(text, Path(path)).campaign()
+def parse_campaign(text: str, path: str | Path = "campaign.toml", *, import_plugins: bool = False,
+                   allow_outside: bool = False) -> Campaign:
+    """Check ``text`` (the contents of the campaign file ``path``) into a :class:`Campaign`;
+    the keywords are :func:`load_campaign`'s."""
+    return _Loader(text, Path(path), import_plugins, allow_outside).campaign()
+
+
+def _decode(data: bytes, name: str) -> str:
+    """The UTF-8 text of a TOML file, refused by name if it is not UTF-8."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{name} is not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+                          "save it as UTF-8.") from None
+
+
+def _check_bom(text: str, name: str) -> None:
+    if text.startswith("\ufeff"):
+        raise ConfigError(f"{name} starts with a UTF-8 byte-order mark (BOM), which TOML does not allow; "
+                          "save the file as UTF-8 without BOM.")
+
+
+#: A plugin is named as Python imports it: dotted identifiers, no path.
+_MODULE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*")
+
+
+def plugin_problem(module: str) -> str | None:
+    """Why ``module`` cannot be a plugin (not a module name, a module of Python's
+    standard library), or None."""
+    if not isinstance(module, str) or not _MODULE_NAME.fullmatch(module):
+        return f"plugin {module!r} is not a module name; give one like 'my_bench' or 'mypackage.benches'"
+    top = module.split(".", 1)[0]
+    if top in sys.stdlib_module_names or top in sys.builtin_module_names:
+        return (f"plugin '{module}' is a module of Python's standard library, not a plugin; name a module "
+                "in the campaign folder or an installed package that registers a virtual test")
+    return None
+
+
+def import_plugins(plugins, folder: str | Path) -> None:
+    """Import the plugin modules ``plugins`` (which register extra virtual experiments),
+    found in ``folder`` (the campaign's folder, added at the end of ``sys.path``, so
+    that installed packages come first and spawned workers find it too) or among the
+    installed packages.
+
+    Raises
+    ------
+    ConfigError
+        A name that is no plugin (:func:`plugin_problem`), a module that is found nowhere,
+        or one that fails while it is imported; the sentence names it.
+    """
+    folder = str(Path(folder).resolve())
+    if folder not in sys.path:
+        sys.path.append(folder)
+    importlib.invalidate_caches()  # a module written since the folder was last looked at
+    for module in plugins:
+        problem = plugin_problem(module)
+        if problem:
+            raise ConfigError(problem + ".")
+        top = module.split(".", 1)[0]
+        try:
+            found = importlib.util.find_spec(top) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            raise ConfigError(f"plugin '{module}' is neither a module in the campaign folder {folder} nor an "
+                              "installed package; put it there or install it.")
+        try:
+            importlib.import_module(module)
+        except Exception as exc:  # noqa: BLE001 - a plugin is the user's code; any failure is theirs
+            from demcal._checks import printable
+
+            first = printable(str(exc).strip().splitlines()[0] if str(exc).strip() else "", 200)
+            raise ConfigError(f"plugin '{module}' failed while being imported "
+                              f"({type(exc).__name__}{': ' + first if first else ''}); fix the module.") from None
 
 
 # --------------------------------------------------------------------------- loader
 
 
 class _Loader:
-    def __init__(self, text: str, path: Path):
+    def __init__(self, text: str, path: Path, import_plugins: bool = False, allow_outside: bool = False):
         self.path = path
         self.text = text
+        self.import_plugins = import_plugins
+        self.allow_outside = allow_outside
+        _check_bom(text, path.name)
         try:
             self.data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
@@ -250,6 +351,22 @@ class _Loader:
                 return self.lines[where]
             where = where[:-1]
         return None
+
+    # -- paths
+    def inside(self, path: Path, written: str, where: tuple, what: str) -> Path:
+        """``path`` (already joined to the campaign's folder), refused unless it lies in
+        that folder or ``allow_outside`` was given; links are followed."""
+        if self.allow_outside:
+            return path
+        folder = self.path.parent.resolve()
+        try:
+            resolved = path.resolve()
+        except (OSError, RuntimeError):  # a loop of links
+            resolved = Path(os.path.abspath(path))
+        if resolved == folder or folder in resolved.parents:
+            return path
+        raise self.error(where, f"{what} '{written}' lies outside the campaign file's folder {folder}; "
+                                "move it into that folder, or pass --allow-outside to use it where it is")
 
     # -- generic checks
     def check_keys(self, table: Mapping[str, Any], where: tuple, schema: str) -> None:
@@ -322,9 +439,8 @@ class _Loader:
         self.check_keys(meta, ("campaign",), "campaign")
         name = self.string(meta, "name", ("campaign",))
         description = meta.get("description", "")
-        workdir = Path(self.string(meta, "workdir", ("campaign",), f"{self.path.stem}-runs"))
-        if not workdir.is_absolute():
-            workdir = self.path.parent / workdir
+        written = self.string(meta, "workdir", ("campaign",), f"{self.path.stem}-runs")
+        workdir = self.inside(self.path.parent / written, written, ("campaign", "workdir"), "workdir")
 
         self.samples = self.lab_records(meta)
         experiment, test, profile, plugins, settings = self.experiment()
@@ -340,6 +456,16 @@ class _Loader:
 
         runs = self.table(data, "runs", ())
         self.check_keys(runs, ("runs",), "runs")
+        replicates = self.integer(runs, "replicates", ("runs",), 1, 1)
+        if replicates > 1:
+            from demcal.doe.designs import check_run_count
+
+            try:
+                check_run_count(self.design_runs * replicates,
+                                f"{self.design_runs:,} design runs x {replicates:,} replicates",
+                                "use fewer replicates")
+            except ConfigError as exc:
+                raise self.error(("runs", "replicates"), str(exc)) from None
         model = self.table(data, "model", ())
         self.check_keys(model, ("model",), "model")
         order = self.choice(model, "order", ("model",), _MODEL_ORDERS, "quadratic")
@@ -357,10 +483,21 @@ class _Loader:
         self.check_keys(report, ("report",), "report")
         reference_table = None
         if "reference_table" in report:
-            reference_table = self.path.parent / self.string(report, "reference_table", ("report",))
+            written = self.string(report, "reference_table", ("report",))
+            reference_table = self.inside(self.path.parent / written, written, ("report", "reference_table"),
+                                          "reference_table")
             if not reference_table.is_file():
                 raise self.error(("report", "reference_table"),
-                                 f"reference_table '{report['reference_table']}' does not exist next to the campaign file")
+                                 f"reference_table '{written}' does not exist next to the campaign file"
+                                 if not reference_table.exists() else
+                                 f"reference_table '{written}' is not a file; give the CSV of a published design")
+        calibration = self.calibration(experiment, factors, verification)
+        verification_replicates = self.integer(verification, "replicates", ("verification",), 3, 0)
+        seed = self.integer(runs, "seed", ("runs",), 1, 0)
+        verification_seed = self.integer(verification, "seed", ("verification",), 100_000, 0)
+        self.check_seed(("runs", "seed"), "[runs] seed", seed, self.seed_span(replicates, calibration, conditions))
+        self.check_seed(("verification", "seed"), "[verification] seed", verification_seed,
+                        1000 * len(conditions) + max(calibration.max_replicates, verification_replicates))
 
         return Campaign(
             path=self.path,
@@ -374,18 +511,36 @@ class _Loader:
             design=design,
             responses=responses,
             conditions=conditions,
-            seed=self.integer(runs, "seed", ("runs",), 1, 0),
-            replicates=self.integer(runs, "replicates", ("runs",), 1, 1),
+            seed=seed,
+            replicates=replicates,
             model_order=order,
             reduce_alpha=reduce_alpha,
-            verification_replicates=self.integer(verification, "replicates", ("verification",), 3, 0),
-            verification_seed=self.integer(verification, "seed", ("verification",), 100_000, 0),
+            verification_replicates=verification_replicates,
+            verification_seed=verification_seed,
             executor=self.executor(),
-            calibration=self.calibration(experiment, factors, verification),
+            calibration=calibration,
             workdir=workdir,
             title=str(report.get("title", name)),
             reference_table=reference_table,
         )
+
+    def seed_span(self, replicates: int, calibration: CalibrationConfig, conditions) -> int:
+        """How far above ``[runs] seed`` the seeds of a campaign's runs reach: design runs
+        (``seed + replicate * points + point``, :func:`demcal.campaign.runner.plan_design`)
+        and the calibration loop's moved boxes and path runs (:mod:`demcal.campaign.loop`)."""
+        from demcal.campaign.loop import BOX_SEED, PATH_SEED
+
+        design = self.design_runs * replicates
+        boxes = calibration.box_moves * len(conditions)
+        return (BOX_SEED * boxes + design + PATH_SEED + 997 * boxes
+                + 10 * (calibration.path_points + 2) + calibration.path_replicates)
+
+    def check_seed(self, where: tuple, name: str, seed: int, span: int) -> None:
+        """Refuse a seed whose derived run seeds (up to ``seed + span``) leave 0 .. 2^63 - 1."""
+        if seed + span > MAX_SEED:
+            raise self.error(where, f"{name} = {seed} leaves no room for the run seeds derived from it (up to "
+                                    f"seed + {span:,}), which must stay within 0 .. 2^63 - 1 ({MAX_SEED}); "
+                                    f"give a seed of at most {MAX_SEED - span}")
 
     def lab_records(self, meta: Mapping) -> dict:
         """Lab records of the file named by ``[campaign] lab`` (one table per sample)."""
@@ -393,15 +548,24 @@ class _Loader:
             return {}
         from demcal.measure.lab import LabRecord
 
+        where = ("campaign", "lab")
         name = self.string(meta, "lab", ("campaign",))
-        path = self.path.parent / name
+        path = self.inside(self.path.parent / name, name, where, "lab file")
+        if path.is_dir():
+            raise self.error(where, f"lab file '{name}' is a folder; give the lab records' TOML file")
         try:
-            data = tomllib.loads(path.read_text(encoding="utf-8"))
+            text = _decode(read_limited(path, MAX_TOML_BYTES, "lab file"), path.name)
+            _check_bom(text, path.name)
+            data = tomllib.loads(text)
         except FileNotFoundError:
-            raise self.error(("campaign", "lab"), f"lab file '{name}' does not exist next to the campaign file") from None
-        except (OSError, tomllib.TOMLDecodeError) as exc:
-            raise self.error(("campaign", "lab"), f"lab file '{name}' cannot be read ({exc})") from None
-        lines = _key_lines(path.read_text(encoding="utf-8"))
+            raise self.error(where, f"lab file '{name}' does not exist next to the campaign file") from None
+        except OSError as exc:
+            raise self.error(where, f"lab file '{name}' cannot be read ({exc.strerror or exc})") from None
+        except ConfigError as exc:
+            raise self.error(where, str(exc)) from None
+        except tomllib.TOMLDecodeError as exc:
+            raise self.error(where, f"lab file '{name}' is not valid TOML ({exc})") from None
+        lines = _key_lines(text)
         records = {}
         for key, table in data.items():
             where = f"{path.name} line {lines.get((key,), '?')} [{key}]"
@@ -418,14 +582,23 @@ class _Loader:
         if not isinstance(plugins, list) or not all(isinstance(p, str) for p in plugins):
             raise self.error(where + ("plugins",), "'plugins' must be a list of module names")
         for module in plugins:
+            problem = plugin_problem(module)
+            if problem:
+                raise self.error(where + ("plugins",), problem)
+        if self.import_plugins:  # only for callers that run simulations; never while just reading
             try:
-                importlib.import_module(module)
-            except ImportError as exc:
-                raise self.error(where + ("plugins",), f"plugin module '{module}' cannot be imported ({exc})") from None
+                import_plugins(plugins, self.path.parent)
+            except ConfigError as exc:
+                raise self.error(where + ("plugins",), str(exc)) from None
         test = self.string(data, "test", where)
         try:
             experiment = get_experiment(test)
         except ConfigError as exc:
+            if plugins and not self.import_plugins:
+                raise self.error(where + ("test",),
+                                 f"unknown virtual test '{test}' among those registered; the plugins that may "
+                                 f"register it ({', '.join(plugins)}) are imported only by the commands that run "
+                                 "simulations (run, calibrate), never while a campaign file is just read") from None
             raise self.error(where + ("test",), str(exc)) from None
         profiles = tuple(experiment.profiles)
         profile = self.choice(data, "profile", where, profiles, "quick" if "quick" in profiles else profiles[0])
@@ -469,7 +642,11 @@ class _Loader:
             parameters.add(parameter)
             low = self.number(data, "low", where)
             high = self.number(data, "high", where)
-            if low >= high:
+            if low == high:
+                raise self.error(where + ("low",),
+                                 f"factor '{parameter}' has low = high = {low:g}, so it does not vary; give "
+                                 f"low < high, or fix its value in [experiment.settings] instead")
+            if low > high:
                 raise self.error(where + ("low",), f"factor '{parameter}' has low {low:g} >= high {high:g}; swap them")
             if parameter not in table:
                 near = difflib.get_close_matches(parameter, list(table), n=1, cutoff=0.6)
@@ -522,6 +699,7 @@ class _Loader:
                                 "use fewer centre points")
             except ConfigError as exc:
                 raise self.error(where + ("center",), str(exc)) from None
+        self.design_runs = runs + (center or 0)  # `runs` holds the design's default centre points if center is None
         return DesignConfig(type=kind, center=center, options=options)
 
     def responses(self, experiment) -> tuple[Response, ...]:
@@ -564,7 +742,8 @@ class _Loader:
             if sample is not None:
                 from demcal.measure.lab import resolve_targets
 
-                for response, angle in resolve_targets(sample, self.path.parent).items():
+                targets_of = resolve_targets(sample, self.path.parent, confine=not self.allow_outside)
+                for response, angle in targets_of.items():
                     if response in {r.name for r in responses} and response not in targets_data:
                         sd = angle.sd_deg if math.isfinite(angle.sd_deg) else None
                         targets_data[response] = {"mean": angle.mean_deg} | ({"sd": sd} if sd is not None else {})
@@ -606,9 +785,11 @@ class _Loader:
             reference = {by_name.get(k, k): float(v) for k, v in reference.items()}
             photo = None
             if "photo" in data:
-                photo = self.path.parent / self.string(data, "photo", where)
+                written = self.string(data, "photo", where)
+                photo = self.inside(self.path.parent / written, written, where + ("photo",), "photo")
                 if not photo.is_file():
-                    raise self.error(where + ("photo",), f"photo '{data['photo']}' does not exist next to the campaign file")
+                    raise self.error(where + ("photo",), f"photo '{written}' does not exist next to the campaign file"
+                                     if not photo.exists() else f"photo '{written}' is not a file; give an image file")
             conditions.append(Condition(name=name, label=str(data.get("label", name)),
                                         targets=tuple(targets), reference=reference, photo=photo,
                                         sample=sample))

@@ -50,7 +50,8 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
     # The loop's two fidelities: designs at the cheap profile, verification at the
     # production one (`--profile paper`: designs at quick, verified at paper).
     cheap = "quick" if profile == "paper" else profile
-    campaigns = [_with_production(load_campaign(folder / name).with_profile(cheap), profile) for name in CAMPAIGNS]
+    campaigns = [_with_production(load_campaign(folder / name, import_plugins=True).with_profile(cheap),
+                                  profile) for name in CAMPAIGNS]
 
     config = campaigns[0].executor
     executor = make_executor(config.kind, config.workers if workers is None else workers, config.scheduler,

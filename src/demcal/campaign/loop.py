@@ -20,7 +20,10 @@
    box is fitted with it. When the path ends at the limits without crossing, the
    condition stops: the target is out of the test's reach.
 3. **Production runs** at the solution nearest the box centre, with replicates (their
-   seed-to-seed sd, pooled over every production point, is the noise). The
+   seed-to-seed sd, pooled over every production point, is the noise). While nothing is
+   known of the discrepancy (the first point of a campaign whose production profile is
+   not its cheap one) a single run probes it first: if it lands outside the lab band,
+   the loop re-solves with what it taught instead of replicating a point it will leave. The
    discrepancy ``production - cheap model`` is modelled as an additive bias with its
    standard error, and, once there are ``k + 2`` distinct production points, as a
    Gaussian process in the coded factors (scikit-learn's
@@ -419,6 +422,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             key = tuple(sorted(chosen.items()))
             if key != point_key:
                 point_key, replicates = key, first_replicates
+                if production != cheap and not any(residuals.values()) and replicates > 1:
+                    replicates = 1  # a probe: nothing is known of production - cheap yet
         hold = None
         if replicates == 0:
             return stop(NOT_VERIFIED, "no production replicates are asked for ([verification] replicates = 0)",
@@ -470,7 +475,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 return stop(NOISE, f"{t.response}: the mean {mean:.2f} is inside the lab spread, but its 95 % "
                             f"interval ± {half:.2f} is not narrower than the lab sd {t.sd:g} after "
                             f"{replicates} replicates; raise [calibration] max_replicates", **state)
-            need = replicates + 1
+            need = max(replicates + 1, first_replicates)
             for t, mean, half, inside, narrow, sd in verdict:
                 if not narrow and t.sd and np.isfinite(sd):
                     need = max(need, math.ceil((1.96 * sd / t.sd) ** 2) + 1)

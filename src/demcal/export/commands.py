@@ -29,6 +29,9 @@ def register(subparsers) -> None:
                              "calibrated condition)")
     parser.add_argument("-o", "--out", dest="output", type=Path, metavar="FILE",
                         help="write to FILE, replacing it whole (default: standard output)")
+    parser.add_argument("--allow-outside", action="store_true",
+                        help="accept campaign paths (workdir, lab, photos, tables) outside the campaign "
+                             "file's folder")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -38,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"unknown export format '{args.format}'; choose {or_list(FORMAT_NAMES)}.")
     if args.output is not None and args.output.is_dir():
         raise ConfigError(f"--out {args.output} is a folder; give a file path.")
-    text = export(args.campaign, args.format, args.condition)
+    text = export(args.campaign, args.format, args.condition, allow_outside=args.allow_outside)
     if args.output is None:
         print(text, end="")
     else:
@@ -47,13 +50,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def export(campaign_path: Path, format: str = "json", conditions: list[str] | None = None) -> str:
+def export(campaign_path: Path, format: str = "json", conditions: list[str] | None = None, *,
+           allow_outside: bool = False) -> str:
     """The material card of the campaign file ``campaign_path`` in ``format``."""
     from demcal.campaign.config import load_campaign
     from demcal.export import formatter
     from demcal.export.card import build_card, read_calibration
 
-    campaign = load_campaign(campaign_path)
+    campaign = load_campaign(campaign_path, allow_outside=allow_outside)
     calibration, path, digest = read_calibration(campaign)
     profile = calibration.get("profile")
     if isinstance(profile, str) and profile != campaign.profile:

@@ -35,7 +35,11 @@ def register(subparsers) -> None:
                              "(default 0.1,0.9)")
     repose.add_argument("--out", help="folder for the annotated pictures (<photo>_fit.png, "
                                       "never over a photo) and table.csv")
-    repose.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    repose.add_argument("--workers", type=int, default=1,
+                        help="processes (default 1: two threads of one process; 0: one per core)")
+    repose.add_argument("--min-r2", type=float, default=None, metavar="R2",
+                        help="a photo whose flank fits have a mean R² below this is an error, not an angle "
+                             "(default 0.9: a heap's flank is a straight line over most of its height)")
     add_json(repose, "print JSON")
 
     incline = add_command(
@@ -63,14 +67,18 @@ def _floats(text: str, count: int, what: str) -> list[float]:
 def _repose(args) -> int:
     from pathlib import Path
 
-    from demcal.measure.photo import measure_photos
+    from demcal.measure.photo import MIN_R2, measure_photos
 
     roi = _floats(args.roi, 4, "--roi") if args.roi else None
     band = tuple(_floats(args.band, 2, "--band"))
     if args.mm_per_px is not None and args.mm_per_px <= 0:
         raise ConfigError(f"--mm-per-px must be positive, got {args.mm_per_px}.")
+    if args.min_r2 is not None and not 0 <= args.min_r2 < 1:
+        raise ConfigError(f"--min-r2 must lie in 0 .. 1 (e.g. 0.9), got {args.min_r2}.")
+    workers = args.workers or _cores()
+    min_r2 = MIN_R2 if args.min_r2 is None else args.min_r2
     batch = measure_photos(args.photos, roi=roi, base_y=args.base_y, mm_per_px=args.mm_per_px,
-                           band=band, out_dir=args.out, workers=max(1, args.workers))
+                           band=band, out_dir=args.out, workers=workers, min_r2=min_r2)
     if args.out:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         batch.write_csv(Path(args.out) / "table.csv")
@@ -95,6 +103,15 @@ def _repose(args) -> int:
     if batch.summary is None:
         raise DataError(f"none of the {len(args.photos)} photos could be measured.")
     return 0
+
+
+def _cores() -> int:
+    import os
+
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
 
 
 def _incline(args) -> int:

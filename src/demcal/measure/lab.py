@@ -154,15 +154,18 @@ class PhotoSet:
     base_y: float | None = None
     exclude: tuple[str, ...] = ()  #: patterns of photos left out on purpose
 
-    def paths(self, base_dir: str | Path | None = None, sample: str | None = None) -> list[str]:
+    def paths(self, base_dir: str | Path | None = None, sample: str | None = None,
+              confine: bool = False) -> list[str]:
         """Photo files, glob patterns expanded relative to ``base_dir``, sorted, less
-        those matched by ``exclude``.
+        those matched by ``exclude``; with ``confine``, every photo must lie inside
+        ``base_dir`` (links followed).
 
         Raises
         ------
         DataError
-            A pattern or an exclusion matches no file, or every photo is excluded
-            (``sample`` names the record in the sentence).
+            A pattern or an exclusion matches no file, every photo is excluded, or (with
+            ``confine``) a photo lies outside ``base_dir``; ``sample`` names the record in
+            the sentence.
         """
         of = "" if sample is None else f" of sample '{sample}'"
 
@@ -171,10 +174,16 @@ class PhotoSet:
             return full, sorted(glob.glob(full))
 
         out = []
+        folder = Path(base_dir if base_dir is not None else ".").resolve()
         for pattern in self.patterns:
             full, hits = expand(pattern)
             if not hits:
                 raise DataError(f"no photo matches '{full}'; check the path in the lab record.")
+            for hit in hits if confine else ():
+                resolved = Path(os.path.realpath(hit))
+                if folder not in resolved.parents:
+                    raise DataError(f"photo '{hit}'{of} lies outside the campaign file's folder {folder}; move "
+                                    "it into that folder, or pass --allow-outside to use it where it is.")
             out.extend(hits)
         left_out = set()
         for pattern in self.exclude:
@@ -296,12 +305,12 @@ class LabRecord:
 
 
 def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
-                    out_dir: str | Path | None = None) -> dict[str, MeasuredAngle]:
+                    out_dir: str | Path | None = None, confine: bool = False) -> dict[str, MeasuredAngle]:
     """The record's measured angles, measuring photos and readings where given.
 
     Returns ``{"repose_angle_deg": ..., "sliding_angle_deg": ...}`` (the keys present
-    in the record). Photos are found relative to ``base_dir``; annotated PNGs go to
-    ``out_dir``.
+    in the record). Photos are found relative to ``base_dir`` (and with ``confine``
+    must lie inside it); annotated PNGs go to ``out_dir``.
 
     Raises
     ------
@@ -317,7 +326,7 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
         out["repose_angle_deg"] = record.repose
     elif record.repose_photos is not None:
         ps = record.repose_photos
-        paths = ps.paths(base_dir, record.name)
+        paths = ps.paths(base_dir, record.name, confine)
         batch = measure_photos(paths, roi=ps.roi, base_y=ps.base_y,
                                mm_per_px=ps.mm_per_px, out_dir=out_dir)
         if batch.failures:

@@ -31,6 +31,9 @@ automation is not enough):
    or the heap's foot if the plate is not seen.
 9. **Fit**: :func:`demcal.measure.flank.fit_outline`, the same fit as for simulated
    heaps, between 10 % and 90 % of the heap height by default.
+10. **Check**: a fit whose mean R² (of the two flanks) is below :data:`MIN_R2` did not
+    find a heap's straight flanks (a picture of noise reads about 0.4 to 0.9): the
+    photo is an error, not an angle.
 
 A slightly tilted camera tilts the base line too: the left flank reads steeper by the
 tilt and the right flank shallower by the same amount, so the **mean** of the two -- the
@@ -63,6 +66,11 @@ MIN_CONTRAST = 0.08
 #: than this (intensity 0..1) in red, green and blue alike is uniform: blank, fully
 #: over- or under-exposed, or a region with no heap in it.
 UNIFORM_SPREAD = MIN_CONTRAST / 2
+#: A photo whose two flank fits have a mean R² below this is refused (``--min-r2``): a
+#: heap's flank is a straight line over most of its height, so real and synthetic heaps
+#: fit with R² above 0.98 (``benchmarks/photos.py``: 0.998 and more), while the outline
+#: traced in a picture of random noise fits with about 0.4 to 0.9.
+MIN_R2 = 0.9
 #: Annotated pictures of a batch are named ``<stem><FIT_SUFFIX>`` (never the photo's own
 #: name, so a picture written next to its photo cannot replace it).
 FIT_SUFFIX = "_fit.png"
@@ -131,10 +139,21 @@ def load_photo(path) -> np.ndarray:
 
 def _read(path) -> np.ndarray:
     """The pixels of an image file as stored (8-bit PNG and JPEG straight from Pillow,
-    everything else through :func:`skimage.io.imread`, which gives the same arrays)."""
+    everything else through :func:`skimage.io.imread`, which gives the same arrays);
+    files above :data:`demcal._checks.MAX_PHOTO_BYTES` are refused unread."""
+    from demcal._checks import MAX_PHOTO_BYTES, format_bytes
+
     path = Path(path)
-    if not path.is_file():
+    if path.is_dir():
+        raise DataError(f"'{path}' is a folder, not a photo; give the photos in it, e.g. "
+                        f"{Path(path) / ('*' + _common_suffix(path))}.")
+    if not path.exists():
         raise DataError(f"photo '{path}' does not exist; check the path.")
+    if not path.is_file():
+        raise DataError(f"photo '{path}' is not a regular file (a device, pipe or socket); give an image file.")
+    if path.stat().st_size > MAX_PHOTO_BYTES:
+        raise DataError(f"photo '{path}' holds {format_bytes(path.stat().st_size)}, more than the "
+                        f"{format_bytes(MAX_PHOTO_BYTES)} demcal reads for a photo; check that it is the right file.")
     try:
         from PIL import Image
 
@@ -151,6 +170,22 @@ def _read(path) -> np.ndarray:
     except Exception as exc:  # skimage/imageio raise many kinds
         raise DataError(f"cannot read photo '{path}' as an image ({type(exc).__name__}); "
                         "use a PNG, JPEG or TIFF file.") from None
+
+
+def _common_suffix(folder: Path) -> str:
+    """The most common image suffix among the first files of ``folder`` (``.jpg`` if none)."""
+    import itertools
+
+    counts: dict[str, int] = {}
+    try:
+        with os.scandir(folder) as entries:
+            for entry in itertools.islice(entries, 1000):
+                suffix = Path(entry.name).suffix
+                if suffix.lower() in (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp"):
+                    counts[suffix] = counts.get(suffix, 0) + 1
+    except OSError:
+        pass
+    return max(counts, key=counts.get) if counts else ".jpg"
 
 
 def _as_rgb(image, name) -> np.ndarray:
@@ -176,24 +211,34 @@ def _pixels(image, name) -> tuple[np.ndarray, float]:
 
 
 def _otsu(values: np.ndarray) -> tuple[float, float, float]:
-    """Otsu threshold of ``values``, its separability (between-class over total
-    variance) and the difference of the two class means; ``(max, 0, 0)`` for values
-    that are all (nearly) the same, which cannot be split into 256 bins."""
+    """Otsu threshold of ``values`` (:func:`skimage.filters.threshold_otsu`, 256 bins),
+    its separability (between-class over total variance, Otsu's eta) and the difference
+    of the two class means; ``(max, 0, 0)`` for values that are all (nearly) the same,
+    which cannot be split into 256 bins.
+
+    scikit-image returns the centre of the last bin of the lower class; the split it
+    chose lies at that bin's upper edge, which is the threshold returned here (the lower
+    class is ``values < threshold``, exactly the bins Otsu's criterion put below).
+    """
+    from skimage.filters import threshold_otsu
+
     low, high = float(values.min()), float(values.max())
     if not high - low > 1e-6 * max(1.0, abs(high)):  # also false for NaN
         return high, 0.0, 0.0
-    hist, edges = np.histogram(values, bins=256)
-    centres = 0.5 * (edges[:-1] + edges[1:])
-    w0 = np.cumsum(hist).astype(float)
-    w1 = w0[-1] - w0
-    m = np.cumsum(hist * centres)
-    mu0 = m / np.maximum(w0, 1)
-    mu1 = (m[-1] - m) / np.maximum(w1, 1)
-    between = w0 * w1 * (mu0 - mu1) ** 2 / w0[-1] ** 2
-    k = int(np.argmax(between[:-1]))
-    total = values.var()
-    eta = float(between[k] / total) if total > 0 else 0.0
-    return float(edges[k + 1]), eta, float(mu1[k] - mu0[k])
+    centre = float(threshold_otsu(values, nbins=256))
+    edges = np.histogram_bin_edges(values, bins=256)  # the bins threshold_otsu used
+    t = float(edges[np.searchsorted(edges, centre, side="right")])
+    lower = values < t
+    n0 = int(np.count_nonzero(lower))
+    n1 = values.size - n0
+    if n0 == 0 or n1 == 0:
+        return t, 0.0, 0.0
+    total = float(values.sum(dtype=float))
+    mu0 = float(values.sum(where=lower, dtype=float)) / n0
+    mu1 = (total - mu0 * n0) / n1
+    var = float(values.var())
+    eta = n0 * n1 * (mu1 - mu0) ** 2 / values.size ** 2 / var if var > 0 else 0.0
+    return t, eta, mu1 - mu0
 
 
 def _channels(img: np.ndarray, name: str | None = None, full_scale: float = 1.0):
@@ -341,7 +386,7 @@ def segment(img: np.ndarray, top_rows: int | None = None, full_scale: float = 1.
 
 def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float | None = None,
                   band: tuple[float, float] = DEFAULT_BAND, png: str | Path | None = None,
-                  name: str | None = None, save_png=None) -> PhotoMeasurement:
+                  name: str | None = None, save_png=None, min_r2: float = MIN_R2) -> PhotoMeasurement:
     """Measure the angle of repose in one photo.
 
     Parameters
@@ -355,12 +400,13 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
     name : name to report (default: the file name).
     save_png : ``save_png(path, rgb)`` writes the annotated pixels (default
         :func:`write_png`; a batch writes in a thread of its own).
+    min_r2 : smallest mean R² of the two flank fits (:data:`MIN_R2`).
 
     Raises
     ------
     DataError
-        Unreadable file, no heap, a heap touching the photo's (or region's) border, or
-        flanks that cannot be fitted; the sentence names the photo.
+        Unreadable file, no heap, a heap touching the photo's (or region's) border,
+        flanks that cannot be fitted or fit below ``min_r2``; the sentence names the photo.
     """
     if isinstance(photo, (str, os.PathLike)):
         name = name or str(photo)
@@ -436,6 +482,10 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
         fit = fit_outline(col * scale, (base_local - edge) * scale, base_z=0.0, band=band)
     except DataError as exc:
         raise DataError(f"photo '{name}': {exc}") from None
+    if not fit.r2 >= min_r2:
+        raise DataError(f"no heap found in photo '{name}': its flank fits have R² {fit.r2:.2f} (left "
+                        f"{fit.left.r2:.2f}, right {fit.right.r2:.2f}), below the {min_r2:g} of a heap's straight "
+                        "flanks; check the photo, its --roi and --base-y (or lower --min-r2).")
     standing = edge < base_local - 0.5
     width_px = float(np.ptp(col[standing]) + 1) if standing.any() else 0.0
     m = PhotoMeasurement(
@@ -695,7 +745,7 @@ def annotated_paths(photos, out_dir) -> list[Path]:
 
 
 def measure_photos(photos, roi=None, base_y=None, mm_per_px=None, band=DEFAULT_BAND,
-                   out_dir: str | Path | None = None, workers: int = 1) -> PhotoBatch:
+                   out_dir: str | Path | None = None, workers: int = 1, min_r2: float = MIN_R2) -> PhotoBatch:
     """Measure a batch of photos; a bad photo is reported and the batch goes on.
 
     ``out_dir`` receives one annotated PNG per photo, named by :func:`annotated_paths`
@@ -713,7 +763,7 @@ def measure_photos(photos, roi=None, base_y=None, mm_per_px=None, band=DEFAULT_B
     pngs = annotated_paths(photos, out_dir) if out_dir is not None else [None] * len(photos)
     jobs = []
     for p, png in zip(photos, pngs):
-        kw = {"roi": roi, "base_y": base_y, "mm_per_px": mm_per_px, "band": band}
+        kw = {"roi": roi, "base_y": base_y, "mm_per_px": mm_per_px, "band": band, "min_r2": min_r2}
         if png is not None:
             kw["png"] = str(png)
         jobs.append((p, kw))

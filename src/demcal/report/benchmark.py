@@ -43,9 +43,12 @@ def read_reference(campaign: Campaign, response: str) -> pd.DataFrame | None:
     """The reference table with the campaign's factor columns and ``response``, or None."""
     if campaign.reference_table is None:
         return None
+    from demcal.doe.io import read_table
+    from demcal.errors import DemcalError
+
     try:
-        ref = pd.read_csv(campaign.reference_table)
-    except (OSError, ValueError, pd.errors.ParserError):
+        ref = read_table(campaign.reference_table)  # with the CSV size limit
+    except (OSError, DemcalError):
         return None
     if response not in ref or not set(campaign.factor_names) <= set(ref.columns):
         return None

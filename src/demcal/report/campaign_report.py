@@ -31,6 +31,7 @@ import pandas as pd
 
 from demcal.campaign.calibrate import Calibration, calibrate
 from demcal.campaign.config import Campaign
+from demcal.errors import DataError
 from demcal.report.html import HtmlReport, format_number
 
 #: How many response-surface figures per campaign (the strongest two-factor interactions).
@@ -480,7 +481,9 @@ def _next_step(report: HtmlReport, cal: Calibration) -> None:
 
 
 def _img(path: Path, alt: str) -> str:
-    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    from demcal._checks import MAX_PHOTO_BYTES, read_limited
+
+    data = base64.b64encode(read_limited(path, MAX_PHOTO_BYTES, "photo", DataError)).decode("ascii")
     mime = "image/jpeg" if path.suffix.lower() in (".jpg", ".jpeg") else "image/png"
     return f'<img alt="{html.escape(alt)}" style="max-width:100%" src="data:{mime};base64,{data}">'
 
@@ -612,10 +615,16 @@ def _reference_sections(report: HtmlReport, campaign: Campaign, frame, runs) -> 
 
 
 def _paper_verification(report: HtmlReport, campaign: Campaign) -> None:
+    from demcal.doe.io import read_table
+
     path = campaign.path.parent / "paper_verification.csv"
     if not path.is_file():
         return
-    data = pd.read_csv(path)
+    data = read_table(path)
+    columns = ("campaign", "condition", "simulated", "measured", "measured_sd", "reported_error_percent")
+    missing = [c for c in columns if c not in data.columns]
+    if missing:
+        raise DataError(f"{path} has no column {missing[0]!r}; it needs the columns {', '.join(columns)}.")
     data = data[data["campaign"] == campaign.name]
     if data.empty:
         return

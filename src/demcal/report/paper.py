@@ -144,9 +144,11 @@ def evaluate_points(study: PaperStudy, model: ResponseSurface) -> pd.DataFrame:
     return pd.DataFrame(rows).set_index("water content")
 
 
-def analyse_study(study: PaperStudy, n_starts: int = 30, seed: int = 0) -> StudyAnalysis:
-    """Fit, summarise, reduce and optimise one study."""
-    frame = load_study_frame(study)
+def analyse_study(study: PaperStudy, n_starts: int = 30, seed: int = 0,
+                  frame: pd.DataFrame | None = None) -> StudyAnalysis:
+    """Fit, summarise, reduce and optimise one study, on its run table ``frame`` (default:
+    the package's copy of the paper's table)."""
+    frame = load_study_frame(study) if frame is None else frame
     model = fit_study(study, frame)
     summary = fit_summary(model.x, model.y, model.factors)
     reduction = backward_elimination(model, 0.05)

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 
 from demcal.doe.factors import Factor
-from demcal.doe.io import (comment_lines, infer_factor_names, numeric_column, read_factor_comments,
-                           read_table)
+from demcal.doe.io import (comment_lines, infer_factor_names, numeric_column, read_csv_text,
+                           read_factor_comments, read_table)
 from demcal.errors import ConfigError, DataError
 
 _TOL = 1e-9
@@ -175,24 +175,21 @@ def runs_from_frame(
     return Runs(tuple(factors), np.column_stack(cols), ys, source)
 
 
-def _declared_units(path) -> bool | None:
+def _declared_units(path, text: str | None = None) -> bool | None:
     """What a demcal design file says its levels are: True (coded), False (actual) or
     None (no ``# demcal design`` line)."""
-    for line in comment_lines(path):
+    for line in comment_lines(path, text):
         m = _DESIGN_LINE.match(line)
         if m:
             return bool(m["coded"])
     return None
 
 
-def _check_csv_shape(path: Path) -> None:
-    """Refuse what pandas would quietly get wrong: a column named twice in the header
-    (pandas renames the second ``A.1``) and a row with more fields than the header
-    (pandas shifts the first such row into an index, reporting an empty cell)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError):
-        return  # read_table reports it
+def _check_csv_shape(path: Path, text: str) -> None:
+    """Refuse what pandas would quietly get wrong in the CSV ``text`` of ``path``: a
+    column named twice in the header (pandas renames the second ``A.1``), a row with
+    more fields than the header (pandas shifts the first such row into an index,
+    reporting an empty cell) and a row with fewer (pandas fills it with empty cells)."""
     lines = []
     for lineno, line in enumerate(text.splitlines(), 1):
         if '"' not in line:
@@ -211,33 +208,33 @@ def _check_csv_shape(path: Path) -> None:
                                 "column its own name.")
             seen.add(h)
         for i, row in enumerate(rows, 1):
-            if len(row) > len(header):
+            if len(row) != len(header):
                 lineno = lines[min(i, len(lines) - 1)][0]
                 raise DataError(
-                    f"row {i} of {path} (line {lineno} of the file) has {len(row)} fields, but "
-                    f"the header has {len(header)}; give every row one field per column."
+                    f"row {i} of {path} (line {lineno} of the file) has {len(row)} field"
+                    f"{'s' if len(row) != 1 else ''}, but the header has {len(header)}; give every row "
+                    "one field per column."
                 )
     except csv.Error:
         return  # read_table reports it
 
 
-def read_table_checked(path):
-    """:func:`demcal.doe.io.read_table` after the checks it leaves out: a folder given
-    for the file, a column named twice, a row with more fields than the header."""
+def read_table_checked(path, text: str | None = None):
+    """:func:`demcal.doe.io.read_table` after the checks it leaves out: a column named
+    twice, a row with more or fewer fields than the header."""
     path = Path(path)
-    if path.is_dir():
-        raise DataError(f"{path} is a folder; give the path of a CSV file with one row per run.")
-    if path.is_file():
-        _check_csv_shape(path)
-    return read_table(path)
+    text = read_csv_text(path) if text is None else text
+    _check_csv_shape(path, text)
+    return read_table(path, text)
 
 
 def read_runs(path, responses, factor_names=None, levels: dict | None = None) -> Runs:
     """Read runs from a CSV; factor levels come from ``levels`` or the file's comments."""
-    df = read_table_checked(path)
-    found = read_factor_comments(path)
+    text = read_csv_text(path)
+    df = read_table_checked(path, text)
+    found = read_factor_comments(path, text)
     merged = {k: v for k, v in found.items() if k in df.columns}
     if factor_names is None and merged:
         factor_names = [c for c in df.columns if c in merged]
     merged.update(levels or {})
-    return runs_from_frame(df, responses, factor_names, merged, str(path), _declared_units(path))
+    return runs_from_frame(df, responses, factor_names, merged, str(path), _declared_units(path, text))

@@ -86,8 +86,9 @@ def fit_summary(x_coded, y, factors=None, alpha: float = 0.05) -> FitSummary:
             df = n_distinct - m.p
             ss = float(m.anova.loc["Residual", "sum_sq"]) - ss_pe
             if df > 0:
-                F = (ss / df) / ms_pe
-                lof_rows[_LABELS[order]] = [ss, df, ss / df, F, stats.f.sf(F, df, df_pe)]
+                # replicates that agree exactly (a deterministic response) leave no pure error to test against
+                F = (ss / df) / ms_pe if ms_pe > 0 else np.nan
+                lof_rows[_LABELS[order]] = [ss, df, ss / df, F, stats.f.sf(F, df, df_pe) if ms_pe > 0 else np.nan]
             else:
                 lof_rows[_LABELS[order]] = [max(ss, 0.0), df, np.nan, np.nan, np.nan]
         lof_rows["Pure Error"] = [ss_pe, df_pe, ms_pe, np.nan, np.nan]
