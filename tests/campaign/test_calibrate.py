@@ -145,3 +145,165 @@ def test_report_renders_in_headless_chromium(report_path, tmp_path):
     image = np.asarray(Image.open(shot).convert("L"), dtype=float)
     assert image.shape == (3000, 1200)
     assert image.std() > 10  # text, tables and figures, not a blank page
+
+
+# --------------------------------------------------------------------------- issue 19
+
+
+def test_a_user_campaigns_report_names_no_paper_and_drops_empty_columns(report_path):
+    """Issue 19: captions come from the campaign; a campaign of one's own names no
+    publication, and columns that would be empty (sample, moisture, an unused note) are left out."""
+    import re
+
+    import pandas as pd
+
+    text = re.sub(r"<[^>]+>", " ", report_path.read_text().split("</style>")[1])
+    assert "paper" not in text.lower() and "Table 1" not in text and "Fig. 7" not in text
+    tables = report_path.parent / "tables"
+    targets = pd.read_csv(tables / "targets.csv")
+    assert list(targets.columns) == ["condition", "response", "target", "lab sd"]
+    params = pd.read_csv(tables / "calibrated_parameters.csv")
+    assert "reference" in params.columns and "reference value" not in params.columns  # 'too low' has values
+    assert "Factors and levels</caption>" in report_path.read_text()
+
+
+def test_the_paper_examples_name_the_papers_tables(calibrated, tmp_path):
+    import dataclasses
+
+    from demcal.campaign.config import load_campaign
+    from demcal.report.campaign_report import write_report
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "residual-film-soil"
+    repose, sliding = (load_campaign(example / f"{name}.toml") for name in ("repose", "sliding"))
+    assert repose.captions["factors"] == "paper Table 3" and sliding.captions["factors"] == "paper Table 7"
+    assert repose.captions["calibrated"] == "paper Table 6" and sliding.captions["calibrated"] == "paper Table 10"
+    assert repose.workdir == example / "repose-runs" and sliding.workdir == example / "sliding-runs"
+    campaign, cal = calibrated
+    cal = dataclasses.replace(cal, campaign=dataclasses.replace(campaign, captions=repose.captions))
+    html = write_report(cal.campaign, tmp_path / "report", [cal], figure_files=False).read_text()
+    assert "Factors and levels (paper Table 3)" in html
+    assert "with simulated responses (paper Table 4)" in html
+    assert "the paper values" in html  # the reference values are called the paper's
+
+
+def test_tiny_profile_warns_in_the_cli_the_report_and_the_json(calibrated, report_path):
+    campaign, cal = calibrated
+    tiny = [w for w in cal.warnings if "smoke test; not a calibration" in w]
+    assert len(tiny) == 1 and "--profile quick" in tiny[0]
+    assert any(line.startswith("warning: profile 'tiny' is a smoke test; not a calibration")
+               for line in describe(cal).splitlines())
+    html = report_path.read_text()
+    assert '<p class="warning">profile &#x27;tiny&#x27; is a smoke test; not a calibration' in html
+    assert ".warning{" in html
+    assert tiny[0] in json.loads((campaign.workdir / "calibration.json").read_text())["warnings"]
+
+
+def test_a_poor_model_warns(calibrated):
+    """Each of Design-Expert's adequacy rules, on models built to break it."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from demcal.campaign.calibrate import adequacy_warnings
+    from demcal.doe.designs import box_behnken
+    from demcal.rsm import fit_response_surface
+
+    campaign = dataclasses.replace(calibrated[0], profile="quick")
+    x = box_behnken(3, center=5)
+    noise = np.random.default_rng(3).normal(0.0, 1.0, len(x))
+    factors = list(campaign.factors[:3])
+    noisy = fit_response_surface(x, 30.0 + noise, factors, "linear", "noise")  # nothing but noise
+    text = " ".join(adequacy_warnings(campaign, {"noise": noisy}))
+    assert noisy.fit.pred_r2 < 0 and "noise: predicted R² is" in text and "below zero" in text
+    assert noisy.fit.adeq_precision < 4 and "adequate precision is" in text and "below 4" in text
+    assert "smoke test" not in text
+    # a curved response with a linear model, replicated centre points that agree closely
+    curved = 30.0 + 5.0 * x[:, 0] ** 2 + 3 * x[:, 1] + 0.05 * noise
+    linear = fit_response_surface(x, curved, factors, "linear", "curved")
+    p = float(linear.anova.loc["Lack of Fit", "p"])
+    assert p < 0.05
+    assert f"curved: lack of fit is significant (p = {p:.4f} < 0.05)" in " ".join(
+        adequacy_warnings(campaign, {"curved": linear}))
+    gap = SimpleNamespace(fit=SimpleNamespace(pred_r2=0.6, adj_r2=0.85, adeq_precision=12.0), has_lack_of_fit=False)
+    (line,) = adequacy_warnings(campaign, {"y": gap})
+    assert line.startswith("y: predicted R² 0.60 is more than 0.2 below adjusted R² 0.85 (Design-Expert's rule)")
+    fine = SimpleNamespace(fit=SimpleNamespace(pred_r2=0.8, adj_r2=0.95, adeq_precision=12.0), has_lack_of_fit=False)
+    assert adequacy_warnings(campaign, {"y": fine}) == []
+
+
+def test_prediction_intervals_of_the_verification_runs(calibrated, report_path):
+    """Issue 19: a 95 % interval of one new run at the chosen parameters (the final box's
+    model shifted by the discrepancy), and "confirmed" only when every run lies inside."""
+    import pandas as pd
+    from scipy import stats
+
+    from demcal.campaign.calibrate import ResponseVerdict
+
+    campaign, cal = calibrated
+    for result in cal.conditions[:2]:
+        (v,) = result.verdicts
+        model = result.loop.models[v.response]
+        point = np.array([[result.chosen_coded[n] for n in campaign.factor_names]])
+        half = stats.t.ppf(0.975, model.df_residual) * np.sqrt(model.mse + model.prediction_se(point)[0] ** 2)
+        assert v.interval == pytest.approx((v.predicted - half, v.predicted + half), rel=1e-9)
+        inside = [v.interval[0] <= x <= v.interval[1] for x in v.simulated]
+        assert v.inside_interval == inside and len(inside) >= 2
+        outside = len(inside) - sum(inside)
+        assert v.confirmation == ("confirmed" if not outside else f"not confirmed ({outside} of {len(inside)} outside)")
+    assert cal.conditions[2].verdicts[0].confirmation == "not simulated yet"
+    table = pd.read_csv(report_path.parent / "tables" / "verification.csv", index_col=0)
+    assert list(table["verdict"]) == [r.verdicts[0].confirmation for r in cal.conditions]
+    assert list(table["runs inside PI"].fillna("").iloc[:2]) == [
+        f"{sum(r.verdicts[0].inside_interval)}/{len(r.verdicts[0].simulated)}" for r in cal.conditions[:2]]
+    assert table["95 % PI low"].iloc[0] == pytest.approx(cal.conditions[0].verdicts[0].interval[0])
+    assert "cheap model" in report_path.read_text() or "from the fitted model" in report_path.read_text()
+    saved = json.loads((campaign.workdir / "calibration.json").read_text())["conditions"][0]["verification"][0]
+    assert saved["confirmation"] == cal.conditions[0].verdicts[0].confirmation
+    assert saved["prediction_interval"]["level"] == 0.95
+    assert saved["prediction_interval"]["low"] == pytest.approx(cal.conditions[0].verdicts[0].interval[0])
+    assert "95 % prediction interval" in describe(cal)
+    missed = ResponseVerdict("y", 1.0, None, 0.5, [0.5, 2.0], (0.0, 1.0), interval=(0.0, 1.0))
+    assert missed.confirmation == "not confirmed (1 of 2 outside)"
+    hit = ResponseVerdict("y", 1.0, None, 0.5, [0.2, 0.6, 0.9], (0.0, 1.0), interval=(0.0, 1.0))
+    assert hit.confirmation == "confirmed" and hit.inside_interval == [True] * 3
+
+
+def test_a_copied_campaign_file_finds_the_results_and_two_files_cannot_mix(campaign_file, capsys):
+    """Issue 19: the store is keyed by the campaign's name, so `cp campaign.toml copy.toml`
+    reports the same results; a copy that says something else, or another campaign
+    pointed at the store, is one sentence (exit 2)."""
+    import shutil as sh
+
+    from demcal.campaign.config import load_campaign
+    from demcal.cli import main
+    from demcal.errors import DataError
+
+    from conftest import InlineExecutor
+
+    path = campaign_file(sleep=0.0)
+    campaign = load_campaign(path)
+    assert campaign.workdir == path.parent / "test-campaign-runs"
+    assert run_campaign(campaign, progress=False, executor=InlineExecutor()).done == 29
+    copy = path.with_name("copy.toml")
+    sh.copyfile(path, copy)
+    again = calibrate(load_campaign(copy), simulate=False, progress=False)
+    assert again.campaign.store_path == campaign.store_path and int((again.table["status"] == "done").sum()) == 29
+
+    copy.write_text(path.read_text().replace("mean = 36.0", "mean = 37.0"))
+    with pytest.raises(DataError, match=r"copy.toml and campaign.toml both claim the store .* as campaign "
+                                        r"'test campaign' but differ; give copy.toml another \[campaign\] name"):
+        calibrate(load_campaign(copy), simulate=False, progress=False)
+    capsys.readouterr()
+    assert main(["report", str(copy)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "both claim the store" in err[0]
+
+    other = path.with_name("other.toml")
+    other.write_text(path.read_text().replace('name = "test campaign"',
+                                              'name = "other"\nworkdir = "test-campaign-runs"'))
+    with pytest.raises(DataError, match=r"holds the results of campaign 'test campaign' \(campaign.toml\), "
+                                        r"not of 'other' \(other.toml\); give other.toml its own"):
+        run_campaign(load_campaign(other), progress=False, executor=InlineExecutor())
+    renamed = path.with_name("renamed.toml")
+    renamed.write_text(path.read_text().replace('name = "test campaign"', 'name = "renamed"'))
+    with pytest.raises(DataError, match="has no results yet"):
+        calibrate(load_campaign(renamed), simulate=False, progress=False)

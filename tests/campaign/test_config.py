@@ -32,7 +32,7 @@ def test_good_file_loads(campaign_file):
     assert campaign.conditions[0].target("repose_angle_deg").mean == 36.0
     assert campaign.conditions[1].target("repose_angle_deg").sd == 2.2
     assert campaign.verification_replicates == 2
-    assert campaign.workdir == campaign.path.parent / "campaign-runs"
+    assert campaign.workdir == campaign.path.parent / "test-campaign-runs"
     with pytest.raises(Exception):
         campaign.name = "x"  # frozen
 
@@ -134,7 +134,7 @@ def test_bad_file_runs_nothing_and_overwrites_nothing(campaign_file, capsys):
 
     good = campaign_file()
     assert main(["run", str(good), "--quiet"]) == 0
-    workdir = good.parent / "campaign-runs"
+    workdir = good.parent / "test-campaign-runs"
     before = _digest(workdir)
     capsys.readouterr()
     for case, (edit, _, _) in sorted(BAD_FILES.items()):
@@ -249,3 +249,14 @@ def test_reading_a_file_imports_no_plugin(campaign_file, tmp_path, monkeypatch):
         assert str(tmp_path) in sys.path  # where spawned workers find it too
     finally:
         sys.modules.pop("heap_plugin_20", None)
+
+
+def test_report_captions_are_checked(campaign_file):
+    """Issue 19: `[report] captions` name the published tables a report table reproduces."""
+    from demcal.campaign.config import load_campaign
+
+    good = load_campaign(campaign_file(replace={"[executor]": '[report.captions]\nfactors = "paper Table 3"\n\n[executor]'}))
+    assert good.captions == {"factors": "paper Table 3"}
+    assert load_campaign(campaign_file()).captions == {}
+    with pytest.raises(ConfigError, match=r"unknown caption 'factor' in \[report\] captions; did you mean 'factors'\?"):
+        load_campaign(campaign_file(replace={"[executor]": '[report.captions]\nfactor = "paper Table 3"\n\n[executor]'}))

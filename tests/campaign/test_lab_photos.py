@@ -46,7 +46,7 @@ def test_a_blank_lab_photo_is_one_sentence(campaign_file, capsys):
     err = capsys.readouterr().err
     assert err.startswith("demcal: error: photo 'photos/white.png' of sample 'L' cannot be measured")
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
-    assert not (path.parent / "campaign-runs").exists()
+    assert not (path.parent / "test-campaign-runs").exists()
 
 
 def test_an_excluded_lab_photo_is_left_out(campaign_file):

@@ -141,9 +141,9 @@ def test_published_values_outside_the_box_are_flagged(built):
     assert "outside the design box: extrapolated" in str(table.loc["too low"].to_dict())
     assert "outside the design box" not in str(table.loc["6.26 %"].to_dict())
     params = pd.read_csv(report.parent / "tables" / "calibrated_parameters.csv")
-    flagged = params[params["paper's value"].fillna("").str.contains("outside the design box: extrapolated")]
+    flagged = params[params["reference value"].fillna("").str.contains("outside the design box: extrapolated")]
     assert list(flagged["condition"]) == ["too low"] and list(flagged["factor"]) == ["A"]
-    assert flagged.iloc[0]["paper"] == pytest.approx(0.95)
+    assert flagged.iloc[0]["reference"] == pytest.approx(0.95)
     assert "A = 0.95 outside 0.5 to 0.7" in str(table.loc["too low"].to_dict())
 
 

@@ -13,7 +13,13 @@
    nearest point is simulated instead;
 3. the chosen parameters are simulated again (``[verification] replicates``) through
    the same runner and store, and the simulated mean is set against the lab's mean
-   with its relative error and whether it lies inside the lab's standard deviation.
+   with its relative error and whether it lies inside the lab's standard deviation;
+   each run is also set against the model's 95 % prediction interval of a single new
+   run there (:func:`prediction_interval`): "confirmed" only when every run lies inside.
+
+The model's adequacy is checked before anything is trusted (:func:`adequacy_warnings`,
+Design-Expert's rules): predicted R² negative or more than 0.2 below adjusted R²,
+significant lack of fit, adequate precision below 4, or the ``tiny`` profile.
 
 Everything is recomputed from the store each time (the fits and the seeded search are
 deterministic), so ``demcal report`` shows exactly what ``calibrate`` found.
@@ -29,12 +35,21 @@ import numpy as np
 import pandas as pd
 
 from demcal.campaign.config import Campaign, Condition
-from demcal.campaign.runner import design_results, point_settings, run_specs
+from demcal.campaign.runner import check_store_owner, design_results, point_settings, run_specs
 from demcal.campaign.store import RunRecord, RunSpec, Store, write_json_atomic
 from demcal.errors import DataError
 
 #: Significant digits of a calibrated parameter as it is simulated and reported.
 PARAMETER_DIGITS = 3
+
+#: Design-Expert's rule: predicted R² within this of adjusted R² ("reasonable agreement").
+R2_AGREEMENT = 0.2
+#: Lack of fit significant below this p.
+LACK_OF_FIT_ALPHA = 0.05
+#: Adequate precision (signal to noise) below this cannot navigate the design space.
+MIN_ADEQUATE_PRECISION = 4.0
+#: Confidence of the verification runs' prediction intervals.
+PREDICTION_LEVEL = 0.95
 
 
 @dataclass
@@ -47,6 +62,8 @@ class ResponseVerdict:
     predicted: float  #: the model's prediction at the chosen parameters
     simulated: list[float]  #: each verification replicate
     reachable: tuple[float, float]  #: the model's range inside the design box
+    #: 95 % prediction interval of one new run at the chosen parameters (NaN: none)
+    interval: tuple[float, float] = (float("nan"), float("nan"))
 
     @property
     def simulated_mean(self) -> float:
@@ -65,6 +82,24 @@ class ResponseVerdict:
         if self.lab_sd is None or not self.simulated:
             return None
         return abs(self.simulated_mean - self.target) <= self.lab_sd
+
+    @property
+    def inside_interval(self) -> list[bool]:
+        """Each verification run inside the prediction interval, or not."""
+        lo, hi = self.interval
+        return [bool(lo <= x <= hi) for x in self.simulated] if np.isfinite(lo) and np.isfinite(hi) else []
+
+    @property
+    def confirmation(self) -> str:
+        """"confirmed" when every verification run lies inside the prediction interval."""
+        if not self.simulated:
+            return "not simulated yet"
+        if not np.all(np.isfinite(self.interval)):
+            return "no interval (no residual degrees of freedom)"
+        inside = self.inside_interval
+        if all(inside):
+            return "confirmed"
+        return f"not confirmed ({len(inside) - sum(inside)} of {len(inside)} outside)"
 
     @property
     def target_reachable(self) -> bool:
@@ -117,7 +152,8 @@ class Calibration:
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"campaign": self.campaign.name, "profile": self.campaign.profile,
-                               "test": self.campaign.test, "notes": list(self.notes), "models": {},
+                               "test": self.campaign.test, "warnings": list(self.warnings),
+                               "notes": list(self.notes), "models": {},
                                "conditions": []}
         for name, model in self.models.items():
             out["models"][name] = {
@@ -140,7 +176,10 @@ class Calibration:
                      "simulated": v.simulated, "simulated_mean": _num(v.simulated_mean),
                      "simulated_sd": _num(v.simulated_sd), "relative_error_percent": _num(v.relative_error_percent),
                      "within_lab_sd": v.within_lab_sd, "reachable": list(v.reachable),
-                     "target_reachable": v.target_reachable}
+                     "target_reachable": v.target_reachable,
+                     "prediction_interval": {"level": PREDICTION_LEVEL, "low": _num(v.interval[0]),
+                                             "high": _num(v.interval[1]), "inside": v.inside_interval},
+                     "confirmation": v.confirmation}
                     for v in result.verdicts
                 ],
             })
@@ -241,8 +280,14 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     if not store_path.is_file():
         if store_path.exists():  # a folder in its place: the store's own sentence
             Store(store_path, readonly=True).close()
+        old = campaign.path.parent / f"{campaign.path.stem}-runs" / "store.sqlite"
+        if old.is_file() and old.parent != store_path.parent:
+            raise DataError(f"{campaign.path.name} has no results in {store_path.parent.name}, the store of campaign "
+                            f"'{campaign.name}'; those in {old.parent.name} (the folder once named after the file) "
+                            f"are found by adding workdir = \"{old.parent.name}\" to its [campaign].")
         raise DataError(f"{campaign.path.name} has no results yet; run `demcal run {campaign.path}` first.")
     with Store(store_path, readonly=True) as store:
+        check_store_owner(campaign, store)
         table = design_results(campaign, store)
         done = int((table["status"] == "done").sum())
         elsewhere = {}  # profile -> design runs done under it, when too few are done under this one
@@ -287,12 +332,76 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
                         f"{campaign.profile} --retry-failed`, then calibrate again.")
         notes = warnings + [n for n in notes if "are left out of the fit" not in n]
 
+    warnings += adequacy_warnings(campaign, models)
+    notes = warnings + [note for note in notes if note not in warnings]
     results = _close_loops(campaign, table, notes, simulate=simulate, workers=workers, scheduler=scheduler,
                            progress=progress, retry_failed=retry_failed, executor=executor)
     calibration = Calibration(campaign, table, full, models, removed, results, notes, warnings)
     if simulate:
         write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
     return calibration
+
+
+def adequacy_warnings(campaign: Campaign, models: dict) -> list[str]:
+    """Why the fitted models may not be fit to calibrate with, one sentence each.
+
+    Design-Expert's checks (Stat-Ease's help on the ANOVA's fit statistics): predicted
+    R² negative, or more than :data:`R2_AGREEMENT` below adjusted R²; lack of fit
+    significant (p < :data:`LACK_OF_FIT_ALPHA`); adequate precision (signal to noise)
+    below :data:`MIN_ADEQUATE_PRECISION`. And the ``tiny`` profile, which only checks
+    that the machinery runs.
+    """
+    out = []
+    profiles = {campaign.profile, production_profile(campaign)}
+    if "tiny" in profiles:
+        out.append("profile 'tiny' is a smoke test; not a calibration: its particles are too few for the "
+                   f"angles to mean anything; run `demcal run {campaign.path} --profile quick` "
+                   "and calibrate at that profile for parameters to use.")
+    for response, model in models.items():
+        fit = model.fit
+        if np.isfinite(fit.pred_r2) and fit.pred_r2 < 0:
+            out.append(f"{response}: predicted R² is {fit.pred_r2:.2f}, below zero: the model predicts a new run "
+                       "worse than the mean of the runs does, so the calibrated parameters rest on noise; use more "
+                       "runs (replicates, a larger design) or a lower [model] order.")
+        elif np.isfinite(fit.pred_r2) and np.isfinite(fit.adj_r2) and fit.adj_r2 - fit.pred_r2 > R2_AGREEMENT:
+            out.append(f"{response}: predicted R² {fit.pred_r2:.2f} is more than {R2_AGREEMENT:g} below adjusted "
+                       f"R² {fit.adj_r2:.2f} (Design-Expert's rule): the model may be over-fitted or a run may be "
+                       "an outlier; look at the diagnostics, reduce the model ([model] reduce_alpha) or add runs.")
+        if model.has_lack_of_fit:
+            p = float(model.anova.loc["Lack of Fit", "p"])
+            if np.isfinite(p) and p < LACK_OF_FIT_ALPHA:
+                out.append(f"{response}: lack of fit is significant (p = {p:.4f} < {LACK_OF_FIT_ALPHA:g}): the "
+                           "design's points deviate from the model by more than the replicates scatter, so "
+                           "its predictions between them are less certain than R² suggests; try a higher "
+                           "[model] order or a smaller design box.")
+        if np.isfinite(fit.adeq_precision) and fit.adeq_precision < MIN_ADEQUATE_PRECISION:
+            out.append(f"{response}: adequate precision is {fit.adeq_precision:.2f}, below "
+                       f"{MIN_ADEQUATE_PRECISION:g}: the model's signal is too weak against the run-to-run noise "
+                       "to navigate the design space; widen the factor levels or add replicates.")
+    return out
+
+
+def prediction_interval(model, corrected, point, level: float = PREDICTION_LEVEL) -> tuple[float, float]:
+    """The ``level`` prediction interval of one new run at the coded ``point``.
+
+    ``corrected.predict(point) ± t(1 - (1 - level)/2, df_res) · sqrt(MSE + se²)``,
+    with ``se`` the standard error of the mean prediction of ``model`` (the cheap
+    profile's fit in its box) and ``corrected`` that model plus the discrepancy
+    (:class:`demcal.campaign.loop.CorrectedSurface`): the discrepancy's mean shifts the
+    interval, its own uncertainty is not added (the regression prediction interval of
+    Montgomery, *Design and Analysis of Experiments*, chapter "Fitting Regression Models").
+    """
+    from scipy import stats
+
+    df = getattr(model, "df_residual", 0)
+    mse = getattr(model, "mse", float("nan"))
+    if df <= 0 or not np.isfinite(mse):
+        return float("nan"), float("nan")
+    point = np.asarray(point, float)
+    se = float(model.prediction_se(point[None, :])[0])
+    centre = float(np.asarray(corrected.predict(point[None, :]))[0])
+    half = float(stats.t.ppf(0.5 + level / 2, df)) * float(np.sqrt(mse + se * se))
+    return centre - half, centre + half
 
 
 def production_profile(campaign: Campaign) -> str:
@@ -391,6 +500,7 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
             response=target.response, target=target.mean, lab_sd=target.sd,
             predicted=float(model.predict(point[None, :])[0]), simulated=[],
             reachable=tuple(map(float, reachable_range(model))),
+            interval=prediction_interval(loop.models[target.response], model, point),
         ))
     notes = list(cond_notes) + list(loop.notes)
     if loop.status != "verified":
@@ -456,6 +566,9 @@ def describe(calibration: Calibration) -> str:
                    f"{inside} the lab spread" if v.simulated else "not simulated yet")
             sd = f" ± {v.lab_sd:g}" if v.lab_sd is not None else ""
             lines.append(f"  {v.response}: target {v.target:g}{sd}, predicted {v.predicted:.2f}, {sim}")
+            if np.all(np.isfinite(v.interval)):
+                lines.append(f"  {v.response}: 95 % prediction interval {v.interval[0]:.2f} to {v.interval[1]:.2f}"
+                             + (f": {v.confirmation}" if v.simulated else ""))
         for note in result.notes:
             lines.append(f"  note: {note}")
     for note in calibration.notes:

@@ -26,7 +26,13 @@ example)::
                     path_replicates (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
-    [report]        title, reference_table
+    [report]        title, reference_table, captions = {KEY = "source", ...} (the published
+                    tables each report table reproduces, e.g. ``factors = "paper Table 3"``:
+                    only a campaign that reproduces a publication names one; see
+                    :data:`CAPTION_KEYS`)
+
+Results live in ``[campaign] workdir``, by default ``<name>-runs`` next to the file
+(the campaign's name made filename-safe), so a copy of the file finds the same results.
 
 Paths in the file (``workdir``, ``lab``, a condition's ``photo``, the lab record's
 photos, ``reference_table``) are taken relative to the campaign file's folder and must
@@ -77,8 +83,13 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
                     "path_replicates"),
     "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
-    "report": ("title", "reference_table"),
+    "report": ("title", "reference_table", "captions"),
 }
+#: ``[report] captions`` keys: the report table (or text) each one's source is added to.
+#: ``reference`` is what the conditions' ``[conditions.reference]`` values are called
+#: (default "reference"), ``runs`` what the campaign's run count is compared with.
+CAPTION_KEYS = ("targets", "sieve", "factors", "design", "calibrated", "verification", "images",
+                "reference", "runs")
 _REQUIRED_TABLES = ("campaign", "experiment", "factors", "conditions")
 _MODEL_ORDERS = ("linear", "2fi", "quadratic", "cubic")
 _EXECUTOR_KINDS = ("local", "dask")
@@ -186,6 +197,8 @@ class Campaign:
     workdir: Path = Path(".")
     title: str = ""
     reference_table: Path | None = None  #: a published design table to re-analyse
+    #: ``[report] captions``: key of :data:`CAPTION_KEYS` -> the published source it reproduces
+    captions: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def factor_names(self) -> list[str]:
@@ -439,7 +452,7 @@ class _Loader:
         self.check_keys(meta, ("campaign",), "campaign")
         name = self.string(meta, "name", ("campaign",))
         description = meta.get("description", "")
-        written = self.string(meta, "workdir", ("campaign",), f"{self.path.stem}-runs")
+        written = self.string(meta, "workdir", ("campaign",), default_workdir(name, self.path))
         workdir = self.inside(self.path.parent / written, written, ("campaign", "workdir"), "workdir")
 
         self.samples = self.lab_records(meta)
@@ -491,6 +504,7 @@ class _Loader:
                                  f"reference_table '{written}' does not exist next to the campaign file"
                                  if not reference_table.exists() else
                                  f"reference_table '{written}' is not a file; give the CSV of a published design")
+        captions = self.captions(report)
         calibration = self.calibration(experiment, factors, verification)
         verification_replicates = self.integer(verification, "replicates", ("verification",), 3, 0)
         seed = self.integer(runs, "seed", ("runs",), 1, 0)
@@ -522,7 +536,22 @@ class _Loader:
             workdir=workdir,
             title=str(report.get("title", name)),
             reference_table=reference_table,
+            captions=captions,
         )
+
+    def captions(self, report: Mapping) -> dict[str, str]:
+        """``[report] captions``: a table of strings keyed by :data:`CAPTION_KEYS`."""
+        where = ("report", "captions")
+        value = self.table(report, "captions", ("report",))
+        for key, text in value.items():
+            if key not in CAPTION_KEYS:
+                near = difflib.get_close_matches(key, CAPTION_KEYS, n=1, cutoff=0.6)
+                hint = f"did you mean '{near[0]}'?" if near else f"valid keys are: {', '.join(CAPTION_KEYS)}"
+                raise self.error(where + (key,), f"unknown caption '{key}' in [report] captions; {hint}")
+            if not isinstance(text, str) or not text.strip():
+                raise self.error(where + (key,), f"caption '{key}' must be a non-empty string, e.g. "
+                                                 f'{key} = "paper Table 3"')
+        return {key: text.strip() for key, text in value.items()}
 
     def seed_span(self, replicates: int, calibration: CalibrationConfig, conditions) -> int:
         """How far above ``[runs] seed`` the seeds of a campaign's runs reach: design runs
@@ -861,6 +890,13 @@ class _Loader:
             start_method=self.choice(data, "start_method", where, _START_METHODS, "spawn"),
             heartbeat_timeout_s=timeout,
         )
+
+
+def default_workdir(name: str, path: str | Path) -> str:
+    """``<name>-runs``: the campaign's name made filename-safe (letters, digits, ``.``,
+    ``_`` and ``-`` kept, any other run of characters one ``-``), else the file's stem."""
+    safe = re.sub(r"[^A-Za-z0-9._-]+", "-", name).strip("-.")
+    return f"{safe or Path(path).stem}-runs"
 
 
 def _is_restitution(key: str) -> bool:

@@ -17,11 +17,13 @@ runner with one sentence, its claims handed back and no partial folder left.
 from __future__ import annotations
 
 import contextlib
+import os
 import re
 import shutil
 import sys
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -29,7 +31,7 @@ import pandas as pd
 
 from demcal.campaign.config import Campaign, DesignConfig
 from demcal.campaign.store import RunRecord, RunSpec, Store, StoreError, temp_name
-from demcal.errors import ConfigError
+from demcal.errors import ConfigError, DataError
 
 #: Seconds between heartbeats of a runner's claims (stale after ``heartbeat_timeout_s``).
 HEARTBEAT_S = 5.0
@@ -149,16 +151,58 @@ def plan_design(campaign: Campaign) -> DesignPlan:
 
 
 def open_store(campaign: Campaign) -> Store:
-    """The campaign's store, created on first use; records the campaign file's text."""
+    """The campaign's store, created on first use; records the campaign's name, file and
+    file text, after :func:`check_store_owner` found the store is the campaign's."""
     from demcal import __version__
 
     store = Store(campaign.store_path)
     try:
-        source = campaign.path.read_text(encoding="utf-8")
-    except OSError:
-        source = ""
-    store.record_campaign(campaign.name, source, __version__)
+        check_store_owner(campaign, store)
+        store.record_campaign(campaign.name, _source(campaign), __version__, _relative_path(campaign, store))
+    except BaseException:
+        store.close()
+        raise
     return store
+
+
+def check_store_owner(campaign: Campaign, store: Store) -> None:
+    """One :class:`DataError` sentence when the store is another campaign's: it records
+    another campaign name, or another file that says something else under this name
+    (a copy of the file with the same text shares the store: results are keyed by the
+    campaign's name)."""
+    recorded = store.campaign()
+    if recorded is None:
+        return
+    where = store.path.parent
+    other = recorded.get("path")
+    other_name = Path(other).name if other else "another file"
+    if recorded["name"] != campaign.name:
+        raise DataError(
+            f"{where} holds the results of campaign '{recorded['name']}' ({other_name}), not of "
+            f"'{campaign.name}' ({campaign.path.name}); give {campaign.path.name} its own [campaign] workdir, "
+            f"or name it '{recorded['name']}' if it is the same campaign.")
+    source = _source(campaign)
+    if (other and other != _relative_path(campaign, store) and source and recorded["source"]
+            and source != recorded["source"]):
+        raise DataError(
+            f"{campaign.path.name} and {other_name} both claim the store {where} as campaign "
+            f"'{campaign.name}' but differ; give {campaign.path.name} another [campaign] name (its own store) "
+            f"or its own [campaign] workdir, so that their results do not mix.")
+
+
+def _source(campaign: Campaign) -> str:
+    try:
+        return campaign.path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return ""
+
+
+def _relative_path(campaign: Campaign, store: Store) -> str:
+    """The campaign file relative to the store's folder (a moved pair keeps it)."""
+    try:
+        return os.path.relpath(campaign.path.resolve(), store.path.parent.resolve())
+    except (OSError, ValueError):
+        return str(campaign.path)
 
 
 @dataclass

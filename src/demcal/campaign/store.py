@@ -53,7 +53,8 @@ CREATE TABLE IF NOT EXISTS campaign (
     source TEXT NOT NULL,
     created_at REAL NOT NULL,
     updated_at REAL NOT NULL,
-    demcal_version TEXT NOT NULL
+    demcal_version TEXT NOT NULL,
+    path TEXT
 );
 CREATE TABLE IF NOT EXISTS runs (
     id INTEGER PRIMARY KEY,
@@ -334,6 +335,8 @@ class Store:
                 for statement in _SCHEMA.split(";"):
                     if statement.strip():
                         db.execute(statement)
+                if "path" not in {row[1] for row in db.execute("PRAGMA table_info(campaign)")}:
+                    db.execute("ALTER TABLE campaign ADD COLUMN path TEXT")  # a store of an older demcal
         self.db.execute(f"PRAGMA busy_timeout={int(BUSY_TIMEOUT_S * 1000)}")
         self.db.row_factory = sqlite3.Row
 
@@ -437,16 +440,29 @@ class Store:
                 raise
 
     # ---------------------------------------------------------------- campaign
-    def record_campaign(self, name: str, source: str, version: str) -> None:
+    def record_campaign(self, name: str, source: str, version: str, path: str | None = None) -> None:
+        """Record the campaign that last wrote here: its name, file text and file
+        (``path``, relative to the store's folder)."""
         now = time.time()
         with self.transaction() as db:
             db.execute(
-                "INSERT INTO campaign (id, name, source, created_at, updated_at, demcal_version) "
-                "VALUES (1, ?, ?, ?, ?, ?) ON CONFLICT (id) DO UPDATE SET "
+                "INSERT INTO campaign (id, name, source, created_at, updated_at, demcal_version, path) "
+                "VALUES (1, ?, ?, ?, ?, ?, ?) ON CONFLICT (id) DO UPDATE SET "
                 "name = excluded.name, source = excluded.source, updated_at = excluded.updated_at, "
-                "demcal_version = excluded.demcal_version",
-                (name, source, now, now, version),
+                "demcal_version = excluded.demcal_version, path = excluded.path",
+                (name, source, now, now, version, path),
             )
+
+    def campaign(self) -> dict[str, Any] | None:
+        """The recorded campaign (``name``, ``source``, ``path``; ``path`` None in a store
+        of an older demcal), or None before any was recorded."""
+        with self.guard():
+            columns = {row[1] for row in self.db.execute("PRAGMA table_info(campaign)")}
+            if not columns:
+                return None
+            path = "path" if "path" in columns else "NULL"
+            row = self.db.execute(f"SELECT name, source, {path} FROM campaign WHERE id = 1").fetchone()
+        return None if row is None else {"name": row[0], "source": row[1], "path": row[2]}
 
     # ---------------------------------------------------------------- runs
     def add(self, specs: Iterable[RunSpec]) -> int:

@@ -1,16 +1,19 @@
 """The campaign report: one self-contained HTML file plus CSV/JSON of every table.
 
-For each campaign (the layout of the reference paper, IJABE 2020):
+For each campaign (the layout of the reference paper, IJABE 2020; captions name a
+publication only where the campaign file's ``[report] captions`` say which of its tables
+a report table reproduces, and columns that would be empty are left out):
 
+* warnings on the model's adequacy first (:func:`demcal.campaign.calibrate.adequacy_warnings`);
 * lab samples and targets (Table 1), factors and levels (Tables 3, 7);
 * the design with its simulated results (Tables 4, 8) and the run statistics;
 * fit summary, ANOVA (Tables 5, 9), fit statistics, coefficients, the model
   equation in coded and actual units (Eqs. 4, 6);
 * predicted vs actual (Fig. 6), perturbation, response surfaces (Figs. 5, 9);
 * calibrated parameters per condition (Tables 6, 10) with the ranges of the
-  solution set, next to the paper's values;
+  solution set, next to the published (``[conditions.reference]``) values;
 * verification: simulated against measured, relative error, inside the lab spread
-  or not -- and plainly why not;
+  or not, inside the model's 95 % prediction interval or not -- and plainly why not;
 * heap images simulated next to measured (Fig. 7), when the runs and photos exist;
 
 then a section that re-analyses the paper's own tables. Figures are embedded as
@@ -77,6 +80,25 @@ def _name(prefix: str, name: str) -> str:
     return f"{prefix}_{name}" if prefix else name
 
 
+def _cite(campaign: Campaign, key: str) -> str:
+    """`` (paper Table 3)``: the source the campaign file names for a table, else nothing."""
+    return f" ({campaign.captions[key]})" if key in campaign.captions else ""
+
+
+def _reference_word(campaign: Campaign) -> str:
+    """What the conditions' ``[conditions.reference]`` values are called ("reference",
+    or the campaign's ``[report] captions.reference``, e.g. "paper")."""
+    return campaign.captions.get("reference", "reference")
+
+
+def _drop_empty(frame: pd.DataFrame) -> pd.DataFrame:
+    """The table without columns in which every cell is empty (None, NaN or "")."""
+    empty = [col for col in frame.columns
+             if all(v is None or (isinstance(v, str) and not v.strip()) or
+                    (isinstance(v, (float, np.floating)) and not np.isfinite(v)) for v in frame[col])]
+    return frame.drop(columns=empty)
+
+
 def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> None:
     c = cal.campaign
     n = lambda name: _name(prefix, name)  # noqa: E731
@@ -93,6 +115,8 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
     if c.plugins:
         report.paragraph(f"Plugins named by the campaign file: {', '.join(c.plugins)} (imported by `demcal run` and "
                          "`demcal calibrate` to register the virtual test; `demcal report` imports none).")
+    for warning in cal.warnings:
+        report.warning(warning)
     if len(done) < len(table):
         report.note(f"{len(table) - len(done)} of {len(table)} design runs are not done, so the model is fitted "
                     f"to {len(done)}: run `{_command(c, 'run')}`"
@@ -105,7 +129,7 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
     levels = pd.DataFrame(
         [{"factor": f.name, "parameter": f.parameter, "label": f.description, "units": f.units,
           "-1": f.low, "0": f.centre, "+1": f.high} for f in c.factors]).set_index("factor")
-    report.table(levels, n("factors"), caption="Factors and levels (paper Tables 3 and 7)")
+    report.table(_drop_empty(levels), n("factors"), caption="Factors and levels" + _cite(c, "factors"))
 
     report.section("Design and results", 3)
     _design_section(report, cal, n)
@@ -119,7 +143,8 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
     _verification_sections(report, cal, n)
     _images_section(report, cal, n)
     for note in cal.notes:
-        report.note(note)
+        if note not in cal.warnings:
+            report.note(note)
 
 
 def _lab_section(report: HtmlReport, cal: Calibration, n) -> None:
@@ -138,12 +163,12 @@ def _lab_section(report: HtmlReport, cal: Calibration, n) -> None:
             s = record.sieve
             for lo, hi, m in zip(s.lower_mm, s.upper_mm, s.mass_percent):
                 sieve_rows.append({"sample": record.name, "class mm": f"[{lo:g}, {hi:g})", "mass %": m})
-    report.table(pd.DataFrame(rows).set_index("condition"), n("targets"),
-                 caption="Lab samples and measured targets (paper Table 1, Sections 2.1 and 3.1)")
+    report.table(_drop_empty(pd.DataFrame(rows).set_index("condition")), n("targets"),
+                 caption="Lab samples and measured targets" + _cite(c, "targets"))
     if sieve_rows:
         sieve = pd.DataFrame(sieve_rows).pivot(index="class mm", columns="sample", values="mass %")
         sieve = sieve.reindex([r["class mm"] for r in sieve_rows if r["sample"] == sieve_rows[0]["sample"]])
-        report.table(sieve, n("sieve"), caption="Particle-size distribution, mass % (paper Table 1)")
+        report.table(sieve, n("sieve"), caption="Particle-size distribution, mass %" + _cite(c, "sieve"))
 
 
 def _design_section(report: HtmlReport, cal: Calibration, n) -> None:
@@ -155,7 +180,7 @@ def _design_section(report: HtmlReport, cal: Calibration, n) -> None:
     shown = table[cols].set_index("run").rename(
         columns={f.parameter: f"{f.name} actual" for f in c.factors})
     report.table(shown, n("design_results"),
-                 caption="Design (coded and actual levels) with simulated responses (paper Tables 4 and 8)")
+                 caption="Design (coded and actual levels) with simulated responses" + _cite(c, "design"))
     walls = table["wall_s"].dropna()
     if len(walls):
         report.paragraph(f"Wall time per design run: mean {walls.mean():.1f} s, max {walls.max():.1f} s, "
@@ -216,6 +241,7 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         "setting with desirability >= 0.99 belongs to the solution set, and the range of each factor "
         "over it is given: one angle does not pin down all parameters. The setting simulated for "
         "verification is the one of the set nearest the design centre.")
+    ref = _reference_word(c)
     rows = []
     for result in cal.conditions:
         outside = _outside_box(c, result.condition.reference)
@@ -223,12 +249,13 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
             lo, hi = result.factor_ranges.get(f.parameter, (np.nan, np.nan))
             rows.append({"condition": result.condition.name, "factor": f.name, "parameter": f.parameter,
                          "calibrated": result.chosen[f.parameter], "set low": lo, "set high": hi,
-                         "paper": result.condition.reference.get(f.parameter, np.nan),
-                         "paper's value": (f"outside the design box: extrapolated ({f.low:g} to {f.high:g})"
+                         ref: result.condition.reference.get(f.parameter, np.nan),
+                         f"{ref} value": (f"outside the design box: extrapolated ({f.low:g} to {f.high:g})"
                                            if f.parameter in outside else "")})
-    report.table(pd.DataFrame(rows).set_index("condition"), n("calibrated_parameters"),
-                 caption="Calibrated parameters per condition with the solution-set ranges, "
-                         "and the paper's values (Tables 6 and 10)")
+    params = _drop_empty(pd.DataFrame(rows).set_index("condition"))
+    report.table(params, n("calibrated_parameters"),
+                 caption="Calibrated parameters per condition with the solution-set ranges"
+                         + (f", and the {ref} values" if ref in params.columns else "") + _cite(c, "calibrated"))
     pred = []
     for result in cal.conditions:
         outside = _outside_box(c, result.condition.reference)
@@ -245,12 +272,14 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
             pred.append({"condition": result.condition.name, "response": v.response, "target": v.target,
                          "goal solved": solved,
                          "predicted at calibrated": v.predicted,
-                         "predicted at paper's values": result.reference_predicted.get(v.response, np.nan),
-                         "paper's values": flag,
+                         f"predicted at {ref} values": result.reference_predicted.get(v.response, np.nan),
+                         f"{ref} values": flag,
                          "model reaches low": v.reachable[0], "model reaches high": v.reachable[1],
                          "desirability": _target_desirability(result, v, goal)})
-    report.table(pd.DataFrame(pred).set_index("condition"), n("model_predictions"),
-                 caption="Model predictions at the calibrated and at the paper's parameters, and the "
+    report.table(_drop_empty(pd.DataFrame(pred).set_index("condition")), n("model_predictions"),
+                 caption="Model predictions at the calibrated parameters"
+                         + (f" and at the {ref} values" if any(r.reference_predicted for r in cal.conditions)
+                            else "") + ", and the "
                          "range the model reaches inside the design box; desirability is that of the "
                          "lab target itself at the calibrated setting (Derringer-Suich, the solved "
                          "goal's limits widened to the target), so an unreachable target scores below "
@@ -263,7 +292,8 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         if outside:
             values = ", ".join(f"{f.parameter} = {result.condition.reference[f.parameter]:g} (design box "
                                f"{f.low:g} to {f.high:g})" for f in c.factors if f.parameter in outside)
-            report.note(f"{result.condition.name}: the paper's {values} {'is' if len(outside) == 1 else 'are'} "
+            report.note(f"{result.condition.name}: the {ref} value{'' if len(outside) == 1 else 's'} {values} "
+                        f"{'is' if len(outside) == 1 else 'are'} "
                         "outside the design box; the model's prediction there is extrapolated and not to "
                         "be trusted.")
         title = f"Solving for {result.condition.name} (solution 1, the star, is simulated)"
@@ -397,10 +427,8 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
                           "95 % half-width": step.half_width, "what happened": step.text})
     spent = _runs_spent(cal)
     if spent:
-        paper = {"repose": 29 + 6, "sliding": 17 + 6}.get(c.name)
         report.paragraph("Simulations this campaign spent: " + ", ".join(f"{count} {what}" for what, count in spent)
-                         + f"; {sum(count for _, count in spent)} in all"
-                         + (f" (the paper: {paper} for this campaign, 58 for both)" if paper else "") + ".")
+                         + f"; {sum(count for _, count in spent)} in all" + _cite(c, "runs") + ".")
     report.table(pd.DataFrame(status).set_index("condition"), n("loop_status"),
                  caption="How each condition's loop ended, and the runs it spent beyond the campaign's design")
     report.table(pd.DataFrame(boxes).set_index("condition"), n("loop_boxes"),
@@ -428,7 +456,11 @@ def _runs_spent(cal: Calibration) -> list[tuple[str, int]]:
 
 
 def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
+    from demcal.campaign.calibrate import PREDICTION_LEVEL
+
+    c = cal.campaign
     report.section("Verification by simulation", 3)
+    level = f"{100 * PREDICTION_LEVEL:g} % PI"
     rows = []
     for result in cal.conditions:
         for v in result.verdicts:
@@ -442,10 +474,21 @@ def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
                 "simulated sd": v.simulated_sd if v.simulated else np.nan,
                 "error %": v.relative_error_percent if v.simulated else np.nan,
                 "inside lab sd": inside,
+                f"{level} low": v.interval[0], f"{level} high": v.interval[1],
+                "runs inside PI": (f"{sum(v.inside_interval)}/{len(v.inside_interval)}"
+                                   if v.inside_interval else ""),
+                "verdict": v.confirmation,
             })
-    report.table(pd.DataFrame(rows).set_index("condition"), n("verification"),
+    loops = any(r.loop is not None and r.loop.discrepancy for r in cal.conditions)
+    report.table(_drop_empty(pd.DataFrame(rows).set_index("condition")), n("verification"),
                  caption="Simulated against measured at the calibrated parameters "
-                         "(replicates: done / planned; relative error = |simulated mean - lab mean| / lab mean)")
+                         "(replicates: done / planned; relative error = |simulated mean - lab mean| / lab mean); "
+                         f"{level}: the {100 * PREDICTION_LEVEL:g} % prediction interval of one new run at the "
+                         "calibrated parameters, "
+                         + ("the cheap model's (final design box) shifted by the discrepancy's mean, whose own "
+                            "uncertainty it leaves out" if loops else "from the fitted model")
+                         + "; verdict: confirmed only when every verification run lies inside it"
+                         + _cite(c, "verification"))
     _next_step(report, cal)
     for result in cal.conditions:
         for v in result.verdicts:
@@ -533,7 +576,7 @@ def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
     if cells:
         if heaps:
             title, caption = ("Heap images: simulated and measured",
-                              "Simulated (verification run) and measured heap, paper Fig. 7")
+                              "Simulated (verification run) and measured heap" + _cite(c, "images"))
         else:
             title, caption = ("Verification runs: what was measured",
                               "Simulated verification run (its measurement picture) and the lab photo")

@@ -43,6 +43,8 @@ th,td{border:1px solid #ccd;padding:.25em .55em;text-align:right}
 th{background:#eef}td.t,th.t{text-align:left}caption{caption-side:top;text-align:left;
 font-weight:600;padding:.3em 0}figure{margin:1em 0}figcaption{font-size:.9em;color:#444}
 img{max-width:100%}.note{background:#fff8e0;border-left:4px solid #e0b000;padding:.4em .8em}
+.warning{background:#fdecea;border:1px solid #d93025;border-left:6px solid #d93025;color:#611a15;
+padding:.4em .8em}.warning::before{content:"Warning: ";font-weight:700}
 code,pre{background:#f4f4f8;padding:.1em .3em}pre{padding:.6em;overflow-x:auto;white-space:pre-wrap}
 .small{font-size:.85em;color:#555}
 """
@@ -156,6 +158,10 @@ class HtmlReport:
     def note(self, text: str) -> None:
         """A highlighted remark."""
         self.paragraph(text, "note")
+
+    def warning(self, text: str) -> None:
+        """A red box: something that must be read before the results are trusted."""
+        self.paragraph(text, "warning")
 
     def code(self, text: str) -> None:
         """Preformatted text (equations, command lines)."""
