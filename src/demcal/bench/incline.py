@@ -366,7 +366,9 @@ def _plot(out_dir, times, angles, speeds, theta_c, v_detect) -> str:
     ax.set_title("inclined plane: material velocity vs tilt")
     fig.tight_layout()
     path = Path(out_dir, "incline.png")
-    fig.savefig(path)
+    from demcal._files import save_figure
+
+    save_figure(fig, path)
     return str(path)
 
 

@@ -138,7 +138,9 @@ def _measure(sim, s, plate_radius, out_dir, vtkw, progress) -> dict:
     if png is not None:
         artifacts["heap_png"] = str(png)
         path = Path(out_dir, "heap.json")
-        path.write_text(json.dumps(m.to_dict(), indent=1))
+        from demcal._files import write_atomic
+
+        write_atomic(path, json.dumps(m.to_dict(), indent=1))
         artifacts["heap_json"] = str(path)
     responses = {
         "repose_angle_deg": m.angle_deg,

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from demcal.campaign.config import Campaign, Condition
-from demcal.campaign.runner import check_store_owner, design_results, point_settings, run_specs
+from demcal.campaign.runner import check_store_owner, design_results, run_specs
 from demcal.campaign.store import RunRecord, RunSpec, Store, write_json_atomic
 from demcal.errors import DataError
 
@@ -437,7 +437,6 @@ def _close_loops(campaign: Campaign, table: pd.DataFrame, notes: list[str], *, s
 
     def run(specs: list[RunSpec], desc: str):
         if simulate:
-            nonlocal executor
             if executor is None and not own:
                 config = campaign.executor
                 own.append(make_executor(config.kind, config.workers if workers is None else workers,

@@ -352,7 +352,6 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     limits = physical_limits(campaign, cheap)
     first_replicates = cfg.replicates or campaign.verification_replicates
     budget = Budget(campaign)
-    names = campaign.factor_names
     responses = [t.response for t in condition.targets]
     f0 = campaign.factors
     box = Box(0, tuple(f.low for f in f0), tuple(f.high for f in f0))

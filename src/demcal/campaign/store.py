@@ -718,15 +718,10 @@ def publish_dir(tmp: Path, final: Path) -> None:
 
 def write_json_atomic(path: Path, data: Any) -> None:
     """Write JSON to ``path`` through a temporary file and a rename."""
-    text = json.dumps(data, indent=2, sort_keys=True, default=_json_default)
-    tmp = path.with_name(f".{path.name}.tmp-{uuid.uuid4().hex[:8]}")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    except BaseException:  # a full disk: neither a partial file nor a 0-byte temporary stays
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
+    from demcal._files import write_atomic
+
+    # a full disk: neither a partial file nor a 0-byte temporary stays
+    write_atomic(path, json.dumps(data, indent=2, sort_keys=True, default=_json_default))
 
 
 def _json_default(value: Any) -> Any:

@@ -45,7 +45,11 @@ def run(args: argparse.Namespace) -> int:
     if args.output is None:
         print(text, end="")
     else:
-        write_text_atomic(args.output, text)
+        from demcal._files import write_atomic
+
+        if args.output.parent != Path("") and not args.output.parent.is_dir():
+            args.output.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(args.output, text)
         print(f"{args.format} card: {args.output}")
     return 0
 
@@ -64,21 +68,3 @@ def export(campaign_path: Path, format: str = "json", conditions: list[str] | No
         campaign = campaign.with_profile(profile)  # the profile the values were calibrated at
     card = build_card(campaign, calibration, conditions, {"path": str(path), "sha256": digest})
     return formatter(format)(card)
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in its folder and a rename, so a
-    reader never sees half a card."""
-    import os
-    import uuid
-
-    path = Path(path)
-    if path.parent != Path("") and not path.parent.is_dir():
-        path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{uuid.uuid4().hex[:8]}")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()

@@ -331,4 +331,6 @@ def plot_heap(m: HeapMeasurement, positions, radii, axis_xy, base_z, path, title
         f"atan(4z/R) {m.com_cone_angle_deg:.1f}°"), fontsize=9)
     fig.tight_layout()
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    from demcal._files import save_figure
+
+    save_figure(fig, path)

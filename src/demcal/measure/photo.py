@@ -581,9 +581,15 @@ def plot_photo(full: np.ndarray, m: PhotoMeasurement, roi, scale: float, path,
 def write_png(path, rgb: np.ndarray) -> None:
     """Write 8-bit RGB pixels as a PNG file (Pillow, fastest zlib level: the annotated
     pictures are for looking at, not for archiving)."""
+    import io
+
     from PIL import Image
 
-    Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(path, compress_level=1)
+    from demcal._files import write_atomic
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgb, dtype=np.uint8)).save(buf, format="PNG", compress_level=1)
+    write_atomic(path, buf.getvalue())
 
 
 def _label(img: np.ndarray, text: str) -> np.ndarray:

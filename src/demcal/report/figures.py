@@ -198,8 +198,9 @@ def save_figure(fig: Figure, path, dpi: int = 150) -> Path:
         from demcal.errors import ConfigError
         raise ConfigError(f"cannot write a figure as {path.suffix!r}; use .png or .svg.")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, format=fmt, dpi=dpi)
-    return path
+    from demcal._files import save_figure as save_whole
+
+    return save_whole(fig, path, fmt, dpi)
 
 
 def save_figure_formats(fig: Figure, stem, formats=("png", "svg"), dpi: int = 150) -> list[Path]:

@@ -23,11 +23,11 @@ import html
 import io
 import json
 import math
-import os
 import re
-import uuid
 from datetime import datetime, timezone
 from pathlib import Path
+
+from demcal._files import write_atomic  # noqa: F401  (re-exported: report code writes through it)
 
 import numpy as np
 import pandas as pd
@@ -74,26 +74,6 @@ def format_number(v, digits: int = 4, column: str = "") -> str:
     if float(x).is_integer() and abs(x) < 1e7:
         return f"{int(x)}"
     return f"{x:.{digits}g}"
-
-
-def write_atomic(path, data: str | bytes) -> Path:
-    """Write ``data`` to ``path`` through a temporary file in the same folder and a
-    rename (:func:`os.replace`), so ``path`` holds either its old or its new content,
-    whole; the temporary file is removed if anything fails. Text is written as UTF-8."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.tmp")
-    payload = data.encode("utf-8") if isinstance(data, str) else bytes(data)
-    try:
-        with open(tmp, "xb") as handle:
-            handle.write(payload)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            tmp.unlink()
-        except FileNotFoundError:
-            pass
-        raise
-    return path
 
 
 def _figure_bytes(fig, fmt: str, dpi: int) -> bytes:
