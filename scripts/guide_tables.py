@@ -1,0 +1,322 @@
+#!/usr/bin/env python3
+"""The key tables of docs/guide.md, generated from the code's own settings tables.
+
+Each table sits in docs/guide.md between ``<!-- BEGIN keys:NAME -->`` and
+``<!-- END keys:NAME -->``:
+
+* ``campaign:TABLE``: the keys of one campaign table, in the order of
+  ``demcal.campaign.config._ALLOWED[TABLE]``, each with the description below; a key the
+  loader accepts but this file does not describe (or the reverse) is an error, so the
+  guide cannot drift from the loader.
+* ``captions``: ``demcal.campaign.config.CAPTION_KEYS``.
+* ``lab:TABLE``: the keys of a lab record (``TABLE`` = ``record``, ``sieve``, ``repose``,
+  ``sliding``), read from the sentence ``demcal.measure.lab.LabRecord.from_dict`` gives
+  for an unknown key ("known keys are ...").
+* ``bench:NAME``: the settings of the virtual test NAME at its ``quick`` profile, from
+  ``demcal.bench.registry`` (what ``demcal bench NAME --help`` prints).
+* ``file:PATH``: the file PATH of the repository, verbatim (the example's lab and
+  campaign files).
+* ``tests``: the registered virtual tests with their responses and profiles.
+
+Usage::
+
+    python scripts/guide_tables.py           # rewrite the tables in docs/guide.md
+    python scripts/guide_tables.py --check   # exit 1 if a table is out of date
+
+``tests/test_guide.py`` runs the check.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+GUIDE = Path(__file__).resolve().parent.parent / "docs" / "guide.md"
+
+#: (table, key) -> description. Tables as in ``_ALLOWED``; defaults are the loader's.
+CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
+    ("campaign", "name"): "**required**. The campaign's name; it names the result store "
+                          "(`<name>-runs/` next to the file, made filename-safe), so a copy of the "
+                          "file under another name finds the same results.",
+    ("campaign", "description"): "free text, shown in the report.",
+    ("campaign", "workdir"): "folder of the results (store, run folders, report); default "
+                             "`<name>-runs`. Relative to the campaign file's folder and inside it.",
+    ("campaign", "lab"): "TOML file of lab records (one table per sample, see *The lab file*); "
+                         "relative to the campaign file's folder and inside it.",
+    ("experiment", "test"): "**required**. The virtual test: `demcal bench --list` names them "
+                            "(table *The virtual tests* below).",
+    ("experiment", "profile"): "the test's profile for the design runs: `tiny` (a smoke test), "
+                               "`quick` (default) or `paper`. `--profile` on the command line "
+                               "overrides it.",
+    ("experiment", "plugins"): "list of module names that register extra virtual tests, found in "
+                               "the campaign's folder or installed packages; imported only by the "
+                               "commands that simulate (`run`, `calibrate`, `demo`). Default `[]`.",
+    ("experiment", "settings"): "table `KEY = VALUE` of the test's settings fixed for every run "
+                                "(`demcal bench TEST --help`; a key may not also be a factor). "
+                                "Write dotted keys in quotes: `\"particle.density\" = 2600`.",
+    ("factors[]", "name"): "short name used in the model's equation (`A`, `B`, ...); default the "
+                           "next letter. A letter followed by letters, digits or `_`.",
+    ("factors[]", "parameter"): "**required**. The setting the factor drives, e.g. "
+                                "`particle.static_friction` (a key of the test's settings).",
+    ("factors[]", "low"): "**required**. Level at coded -1, in the setting's unit; inside the "
+                          "setting's allowed range (restitution in (0, 1]).",
+    ("factors[]", "high"): "**required**. Level at coded +1; greater than `low`.",
+    ("factors[]", "label"): "the factor's long name in tables and axes; default the parameter.",
+    ("factors[]", "unit"): "unit shown with it; default the setting's unit.",
+    ("factors[]", "hard_low"): "optional limit below which `demcal calibrate` never moves the box "
+                               "(default: the setting's own range); must not exceed `low`.",
+    ("factors[]", "hard_high"): "optional upper limit of the same kind; must not be below `high`.",
+    ("design", "type"): "`box-behnken` (default; alias `bbd`), `central-composite` (`ccd`), "
+                        "`full-factorial` (`factorial`), `fractional-factorial`, `plackett-burman`.",
+    ("design", "center"): "centre points added to the design; default 5 for Box-Behnken, 6 for a "
+                          "central composite, none for the others.",
+    ("design", "variant"): "central composite only: `circumscribed` (default), `inscribed` or "
+                           "`face-centred`.",
+    ("design", "alpha"): "central composite only: `rotatable` (default), `orthogonal` or a number.",
+    ("design", "fraction"): "central composite or fractional factorial: the number p of "
+                            "generators of the 2^(k-p) factorial part (default 0 and 1).",
+    ("design", "levels"): "full factorial only: levels per factor (default 2).",
+    ("design", "runs"): "Plackett-Burman only: number of runs (default: the design's own for k factors).",
+    ("responses[]", "name"): "**required**. A response the test measures (its `responses:` line "
+                             "in `demcal bench TEST --help`). Without `[[responses]]` the test's "
+                             "first response is fitted.",
+    ("responses[]", "label"): "long name with its symbol, e.g. `Angle of repose β`; default the name.",
+    ("responses[]", "unit"): "unit shown with it, e.g. `°`.",
+    ("runs", "seed"): "seed of the first design run (default 1); run i of replicate r gets "
+                      "`seed + r * points + i`.",
+    ("runs", "replicates"): "seeds per design point (default 1); more replicates give a pure-error "
+                            "estimate beyond the centre points.",
+    ("model", "order"): "`linear`, `2fi`, `quadratic` (default) or `cubic`.",
+    ("model", "reduce_alpha"): "drop terms whose p-value exceeds it (backward elimination), "
+                               "e.g. `0.05`; `false` or absent: the full model.",
+    ("conditions[]", "name"): "**required**, unique. One material state (a moisture content, a "
+                              "batch): the calibration solves one parameter set per condition.",
+    ("conditions[]", "label"): "long name in the report; default the name.",
+    ("conditions[]", "sample"): "a sample (table key) of the `[campaign] lab` file; its measured "
+                                "angles become the targets of the responses the campaign fits "
+                                "(`repose_angle_deg`, `sliding_angle_deg`), and its record "
+                                "(moisture, bulk density, sieve table) goes into the report and "
+                                "the material card.",
+    ("conditions[]", "photo"): "a lab heap photo shown next to the simulated heap in the report; "
+                               "inside the campaign folder.",
+    ("conditions[]", "targets"): "table `RESPONSE = { mean = ..., sd = ... }` (or `RESPONSE = "
+                                 "mean`): the lab value to reproduce; overrides the sample's. "
+                                 "Every response needs a target, given here or by the sample.",
+    ("conditions[]", "reference"): "table `PARAMETER = VALUE` (parameter or factor name): "
+                                   "published calibrated values the report evaluates next to "
+                                   "demcal's; leave it out for a material of your own.",
+    ("conditions[].targets.*", "mean"): "**required**. The lab mean, in the response's unit.",
+    ("conditions[].targets.*", "sd"): "the lab standard deviation (>= 0); the calibration stops "
+                                      "when the simulated mean lies within mean ± sd.",
+    ("verification", "replicates"): "seeds per verification (production) run; default 3.",
+    ("verification", "seed"): "first seed of the verification runs; default 100000.",
+    ("calibration", "production"): "profile of the verification (production) runs; default the "
+                                   "campaign's profile. `--production` overrides it.",
+    ("calibration", "replicates"): "first production replicates at a point; default "
+                                   "`[verification] replicates`.",
+    ("calibration", "max_replicates"): "most production replicates at one point (default 10, "
+                                       "at least 2 and at least the first replicates).",
+    ("calibration", "iterations"): "re-solves on the corrected surface per condition (default 4).",
+    ("calibration", "box_moves"): "most box moves per condition (default 3; 0: never move).",
+    ("calibration", "path_points"): "cheap runs along the path of steepest ascent beyond the box "
+                                    "edge, per move (default 3).",
+    ("calibration", "path_replicates"): "seeds per path point (default 1).",
+    ("budget", "runs"): "most runs in the store, design runs included (default: no limit).",
+    ("budget", "cpu_hours"): "most run hours, the sum of the runs' wall times (default: no limit).",
+    ("executor", "kind"): "`local` (default: a pool of worker processes) or `dask`.",
+    ("executor", "workers"): "worker processes; 0 (default) is one per CPU core. `--workers` "
+                             "overrides it.",
+    ("executor", "scheduler"): "a Dask scheduler address, e.g. `tcp://host:8786`; its workers need "
+                               "the campaign folder at the same path. `--scheduler` overrides it.",
+    ("executor", "start_method"): "how local workers start: `spawn` (default) or `forkserver`.",
+    ("executor", "heartbeat_timeout_s"): "seconds after which a run claimed by a runner that "
+                                         "stopped heartbeating (killed, machine lost) is taken over "
+                                         "by another runner (default 120).",
+    ("report", "title"): "the report's title; default the campaign's name.",
+    ("report", "reference_table"): "a CSV of a published design with its responses, re-analysed "
+                                   "in the report's last section; inside the campaign folder.",
+    ("report", "captions"): "table `KEY = \"source\"`: the published table each report table "
+                            "reproduces (keys below). Only a campaign that reproduces a "
+                            "publication names one; without it the report names none.",
+}
+
+#: ``[report.captions]`` key -> what it labels.
+CAPTION_TEXT = {
+    "targets": "the lab data and targets table",
+    "sieve": "the sieve table",
+    "factors": "the factors and levels table",
+    "design": "the design and results table",
+    "calibrated": "the calibrated parameters table",
+    "verification": "the verification table",
+    "images": "the simulated and lab heap images",
+    "reference": "what the `[conditions.reference]` values are called (default \"reference\")",
+    "runs": "what the campaign's run count is compared with",
+}
+
+#: lab table -> (probe: a record with one unknown key there, {key: description}).
+LAB_KEYS = {
+    "record": {
+        "name": "**required**. The sample's name.",
+        "notes": "free text.",
+        "moisture_percent": "water content [%], 0-100.",
+        "moisture_sd_percent": "its standard deviation [%].",
+        "bulk_density": "bulk density [kg/m³], > 0.",
+        "sieve": "table: the particle-size distribution (below).",
+        "repose": "table: the angle of repose, given or measured from photos (below).",
+        "sliding": "table: the sliding angle, given or from incline readings (below).",
+    },
+    "sieve": {
+        "edges_mm": "class bounds [mm], increasing, one more than the classes; the first may be "
+                    "0 (\"< d\"), the last `inf` (\">= d\").",
+        "mass_percent": "mass of each class [%]; sums to 100 within 2 %.",
+    },
+    "repose": {
+        "mean_deg": "the angle [deg] when given (then no `photos`).",
+        "sd_deg": "its standard deviation [deg].",
+        "n": "number of tests behind it.",
+        "photos": "a glob pattern or a list of them, relative to the campaign file's folder: "
+                  "the heap photos measured for the angle (then no `mean_deg`). A photo that "
+                  "cannot be measured stops the campaign with its name; it is never silently "
+                  "left out.",
+        "exclude": "patterns of photos left out on purpose.",
+        "mm_per_px": "scale of the photos [mm/px], for heights and widths.",
+        "roi": "region of interest `[x0, y0, x1, y1]` [px].",
+        "base_y": "row of the base line [px]; default found from the heap's outline.",
+    },
+    "sliding": {
+        "mean_deg": "the angle [deg] when given (then no `H_mm`).",
+        "sd_deg": "its standard deviation [deg].",
+        "n": "number of tests behind it.",
+        "H_mm": "inclined-plane readings: the height at which the sample slid [mm]; "
+                "θ = arcsin(H / L) per reading.",
+        "L_mm": "the arm's length [mm]; default 300.",
+        "repeats": "readings per group (the mean of each group is one test).",
+    },
+}
+
+
+def _lab_known(table: str) -> list[str]:
+    """The keys the lab loader accepts in ``table``, from its unknown-key sentence."""
+    from demcal.errors import ConfigError
+    from demcal.measure.lab import LabRecord
+
+    probe = {"name": "x", "zz_unknown": 1}
+    if table != "record":
+        probe = {"name": "x", table: {"zz_unknown": 1}}
+    try:
+        LabRecord.from_dict(probe)
+    except ConfigError as exc:
+        match = re.search(r"known keys are (.+?)\.$", str(exc))
+        if match:
+            return [k.strip() for k in match.group(1).split(",")]
+        raise RuntimeError(f"unexpected sentence from the lab loader: {exc}") from None
+    raise RuntimeError(f"the lab loader accepted an unknown key in '{table}'")
+
+
+def _row(cells) -> str:
+    return "| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |"
+
+
+def _md_table(header, rows) -> str:
+    lines = [_row(header), _row(["---"] * len(header))]
+    lines += [_row(r) for r in rows]
+    return "\n".join(lines)
+
+
+def tables() -> dict[str, str]:
+    """Every generated block, by marker name. Raises ``RuntimeError`` on drift."""
+    from demcal.bench.registry import get_experiment, names
+    from demcal.campaign.config import _ALLOWED, CAPTION_KEYS
+
+    problems = []
+    out: dict[str, str] = {}
+    for table, keys in _ALLOWED.items():
+        if table == "":
+            continue
+        for key in keys:
+            if (table, key) not in CAMPAIGN_KEYS:
+                problems.append(f"campaign key [{table}] {key} has no description in {__file__}")
+        out[f"campaign:{table}"] = _md_table(["key", "meaning"],
+                                             [[f"`{k}`", CAMPAIGN_KEYS.get((table, k), "")] for k in keys])
+    for table, key in CAMPAIGN_KEYS:
+        if key not in _ALLOWED.get(table, ()):
+            problems.append(f"[{table}] {key} is described but the campaign loader does not accept it")
+    missing = sorted(set(_ALLOWED[""]) - {t.rstrip("[]") for t in _ALLOWED} )
+    if missing:
+        problems.append(f"campaign tables without keys: {missing}")
+    if set(CAPTION_KEYS) != set(CAPTION_TEXT):
+        problems.append(f"caption keys {sorted(CAPTION_KEYS)} differ from the described {sorted(CAPTION_TEXT)}")
+    out["captions"] = _md_table(["key", "labels"], [[f"`{k}`", CAPTION_TEXT.get(k, "")] for k in CAPTION_KEYS])
+    for table, described in LAB_KEYS.items():
+        known = _lab_known(table)
+        if set(known) != set(described):
+            problems.append(f"lab table '{table}': loader keys {sorted(known)} differ from the described "
+                            f"{sorted(described)}")
+        out[f"lab:{table}"] = _md_table(["key", "meaning"], [[f"`{k}`", described.get(k, "")] for k in described])
+    rows = []
+    for name in names():
+        exp = get_experiment(name)
+        rows.append([f"`{name}`", exp.description, ", ".join(f"`{r}`" for r in exp.responses),
+                     ", ".join(exp.profiles)])
+    out["tests"] = _md_table(["test", "what it does", "responses", "profiles"], rows)
+    for name in names():
+        exp = get_experiment(name)
+        settings = exp.settings("quick" if "quick" in exp.profiles else exp.profiles[0])
+        body = []
+        for key, s in settings.items():
+            if s.choices:
+                allowed = " \\| ".join(s.choices)
+            elif s.low is not None or s.high is not None:
+                allowed = f"{'' if s.low is None else f'{s.low:g}'} to {'' if s.high is None else f'{s.high:g}'}"
+            else:
+                allowed = ""
+            default = f"{s.default:g}" if isinstance(s.default, float) else s.default
+            body.append([f"`{key}`", default, s.unit, allowed, s.help])
+        out[f"bench:{name}"] = _md_table(["setting", "default (quick)", "unit", "allowed", "meaning"], body)
+    if problems:
+        raise RuntimeError("; ".join(problems))
+    return out
+
+
+_BLOCK = re.compile(r"(<!-- BEGIN keys:(?P<name>[^ ]+) -->\n)(?P<body>.*?)(\n<!-- END keys:(?P=name) -->)", re.S)
+
+
+def render(text: str) -> str:
+    """``text`` (the guide) with every generated block replaced by the current table;
+    a block ``file:PATH`` is that file of the repository, verbatim, as a TOML block."""
+    blocks = tables()
+    root = GUIDE.parent.parent
+    for match in _BLOCK.finditer(text):
+        name = match.group("name")
+        if name.startswith("file:"):
+            body = (root / name[5:]).read_text(encoding="utf-8").rstrip("\n")
+            blocks[name] = f"```toml\n{body}\n```"
+
+    def replace(match):
+        name = match.group("name")
+        if name not in blocks:
+            raise RuntimeError(f"docs/guide.md names an unknown generated table '{name}'")
+        return match.group(1) + blocks[name] + match.group(4)
+
+    return _BLOCK.sub(replace, text)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--check", action="store_true", help="exit 1 if docs/guide.md is out of date")
+    args = parser.parse_args()
+    text = GUIDE.read_text(encoding="utf-8")
+    new = render(text)
+    if args.check:
+        if new != text:
+            print("docs/guide.md: a key table is out of date; run python scripts/guide_tables.py", file=sys.stderr)
+            return 1
+        return 0
+    GUIDE.write_text(new, encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
