@@ -16,7 +16,7 @@ from demcal.campaign.config import parse_campaign
 from demcal.campaign.runner import run_campaign
 from demcal.campaign.store import Store
 
-from conftest import CAMPAIGN
+from conftest import CAMPAIGN, InlineExecutor
 
 
 @pytest.fixture(scope="module")
@@ -277,7 +277,6 @@ def test_a_copied_campaign_file_finds_the_results_and_two_files_cannot_mix(campa
     from demcal.cli import main
     from demcal.errors import DataError
 
-    from conftest import InlineExecutor
 
     path = campaign_file(sleep=0.0)
     campaign = load_campaign(path)
