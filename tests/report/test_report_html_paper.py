@@ -18,7 +18,8 @@ def test_format_number():
     assert format_number(0.00002, column="p") == "< 0.0001"
     assert format_number(0.05813, column="p") == "0.0581"
     assert format_number(23.378378) == "23.38"
-    assert format_number(2.9554e-4) == "2.955e-04"
+    assert format_number(2.9554e-4) == "0.0002955"
+    assert format_number(3.096e4) == "30960" and format_number(2.9554e-6) == "2.955e-06"
     assert format_number(np.nan) == ""
     assert format_number(14) == "14"
 
@@ -102,3 +103,30 @@ def test_write_paper_report(tmp_path):
                 assert (lo, hi) == pytest.approx(res.factor_ranges[f.name], rel=1e-12, abs=1e-15)
     design_levels = {"A": (0.5, 0.7), "B": (0.3, 0.5), "C": (0.1, 0.3), "D": (0.0, 0.2)}
     assert {f.name: (f.low, f.high) for f in REPOSE.factors} == design_levels  # Table 3
+
+
+def test_figure_files_at_300_dpi_and_labelled(tmp_path):
+    """Issue 19: figure files at 300 dpi (the embedded PNG stays at 110 dpi), the response
+    axis named with its unit, the design points on the contour."""
+    import base64
+    import io
+
+    from PIL import Image
+
+    from demcal.report.figures import response_label, surface_figure
+
+    m = fit_study(REPOSE)
+    fig = surface_figure(m, 1, 2)
+    contour = fig.axes[1]
+    assert len(contour.collections) >= 2 and any(len(c.get_offsets()) for c in contour.collections[-2:])
+    assert response_label("repose_angle_deg") == "Repose angle [°]"
+    assert "Repose angle [°]" in [a.get_ylabel() for a in fig.axes]
+    rep = HtmlReport("t", tmp_path)
+    rep.figure(fig, "surf")
+    with Image.open(tmp_path / "figures" / "surf.png") as im:
+        assert round(im.info["dpi"][0]) == 300
+        file_width = im.size[0]
+    embedded = base64.b64decode(rep.blocks[-1].split("base64,")[1].split('"')[0])
+    with Image.open(io.BytesIO(embedded)) as im:
+        assert im.size[0] * 300 == pytest.approx(file_width * 110, rel=0.01)
+    assert (tmp_path / "figures" / "surf.svg").exists()

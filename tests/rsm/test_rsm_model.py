@@ -204,7 +204,7 @@ def test_analyze_text_with_levels_and_reduction(capsys):
     x, y = df[names].to_numpy(float), df["repose_angle_deg"].to_numpy(float)
     kept, removed = _backward(x, y, _terms(4, "quadratic"), 0.05)
     assert removed[0] == (0, 0, 0, 2)
-    assert "backward elimination removed D^2 (p = 0.996)" in cap.err
+    assert "backward elimination removed D² (p = 0.9956)" in cap.err
 
     # (b) the printed ANOVA is the reduced model's: no D², exactly the kept terms
     i, j = lines.index("ANOVA (partial sums of squares)"), lines.index("Fit statistics")
@@ -232,7 +232,12 @@ def test_analyze_text_with_levels_and_reduction(capsys):
     assert _parse_equation(coded_eq)["BC"] == pytest.approx(1.88, abs=0.005)
 
     # (d) the fit summary is printed, with the order test_fit_summary_sequence derives
-    assert "Suggested model: 2FI" in lines
+    # after --reduce it does not call its order "the suggested model" of the reduced fit
+    # (issue 19): it names the reduced model's terms instead
+    assert not any(ln.startswith("Suggested model") for ln in lines)
+    said = [ln for ln in lines if ln.startswith("Fit summary's suggested order: 2FI")]
+    assert len(said) == 1 and "reduced quadratic model" in said[0]
+    assert set(said[0].rstrip(")").split("terms ")[1].split(", ")) == {_display(t, names) for t in kept if any(t)}
 
 
 def test_analyze_fit_summary_errors(monkeypatch, capsys):

@@ -25,8 +25,39 @@ __all__ = [
 ]
 
 
+#: Unit suffixes of response names (``repose_angle_deg``) and the unit they stand for.
+_UNIT_SUFFIXES = {"deg": "°", "rad": "rad", "percent": "%", "pct": "%", "m": "m", "mm": "mm",
+                  "s": "s", "pa": "Pa", "kg": "kg", "n": "N", "j": "J", "kgm3": "kg/m³"}
+
+
 def _factor_label(f) -> str:
     return getattr(f, "label", f.name)
+
+
+def response_label(name: str, label: str | None = None, unit: str | None = None) -> str:
+    """Axis label of a response: ``label [unit]``; without them, read from the name:
+    ``repose_angle_deg`` -> ``Repose angle [°]``."""
+    if label is None or label == name:
+        words = str(name).split("_")
+        if unit is None and len(words) > 1 and words[-1].lower() in _UNIT_SUFFIXES:
+            unit = _UNIT_SUFFIXES[words.pop().lower()]
+        label = " ".join(words)
+        label = label[:1].upper() + label[1:]
+    return f"{label} [{unit}]" if unit else label
+
+
+def _short_ticks(ax, axes=("x", "y")) -> None:
+    """At most 5 ticks per axis, printed with 3 significant digits (no "0.5000.525")."""
+    from matplotlib.ticker import MaxNLocator
+
+    for which in axes:
+        axis = getattr(ax, f"{which}axis")
+        axis.set_major_locator(MaxNLocator(nbins=4, min_n_ticks=3))  # one locator per axis
+        axis.set_major_formatter(_make_short())
+
+
+def _short(v, _pos=None) -> str:
+    return f"{v:.3g}" if v != 0 else "0"
 
 
 def _with_label(text: str, label: str | None) -> str:
@@ -54,14 +85,15 @@ def predicted_vs_actual_figure(model, title: str | None = None, label: str | Non
     ax.set_xlim(lo - pad, hi + pad)
     ax.set_ylim(lo - pad, hi + pad)
     ax.set_aspect("equal")
-    ax.set_xlabel(f"Actual {model.response}")
-    ax.set_ylabel(f"Predicted {model.response}")
+    ax.set_xlabel(f"Actual {response_label(model.response)}")
+    ax.set_ylabel(f"Predicted {response_label(model.response)}")
     ax.set_title(title or _with_label(f"Predicted vs actual, R² = {model.fit.r2:.3f}", label), fontsize=10)
     return fig
 
 
 def surface_figure(model, i: int, j: int, hold=None, actual: bool = True, n: int = 41,
-                   title: str | None = None, label: str | None = None) -> Figure:
+                   title: str | None = None, label: str | None = None, points: bool = True,
+                   response: str | None = None) -> Figure:
     """Response surface (3-D) and contour of factors ``i`` and ``j`` (paper Figs. 5, 9).
 
     Parameters
@@ -77,8 +109,14 @@ def surface_figure(model, i: int, j: int, hold=None, actual: bool = True, n: int
         Grid points per axis.
     label : str, optional
         Which model this is (e.g. "reduced model"), added to the default title.
+    points : bool
+        Draw the design points on the contour (filled: in the plane of the held levels;
+        open: elsewhere, projected onto it) and on the 3-D surface (measured responses).
+    response : str, optional
+        Axis label of the response (default: :func:`response_label` of its name).
     """
     k = len(model.factors)
+    zlabel = response or response_label(model.response)
     hold = np.zeros(k) if hold is None else np.asarray(hold, dtype=float)
     g = np.linspace(-1, 1, n)
     gi, gj = np.meshgrid(g, g, indexing="xy")
@@ -96,20 +134,38 @@ def surface_figure(model, i: int, j: int, hold=None, actual: bool = True, n: int
     stride = max(1, n // 20)  # a coarser mesh for the 3-D view keeps SVG files small
     ax3.plot_surface(xi, xj, z, cmap="viridis", linewidth=0, antialiased=False,
                      rstride=stride, cstride=stride)
-    ax3.set_xlabel(fi.name, fontsize=8)
-    ax3.set_ylabel(fj.name, fontsize=8)
-    ax3.set_zlabel(model.response, fontsize=8)
-    ax3.tick_params(labelsize=7)
+    ax3.set_xlabel(_factor_label(fi), fontsize=7)
+    ax3.set_ylabel(_factor_label(fj), fontsize=7)
+    ax3.set_zlabel(zlabel, fontsize=7)
+    ax3.tick_params(labelsize=6)
+    _short_ticks(ax3, ("x", "y", "z"))
     ax = fig.add_subplot(1, 2, 2)
     cs = ax.contourf(xi, xj, z, levels=14, cmap="viridis")
     cl = ax.contour(xi, xj, z, levels=cs.levels[::2], colors="k", linewidths=0.5)
-    ax.clabel(cl, fontsize=7, fmt="%.3g")
-    fig.colorbar(cs, ax=ax, label=model.response)
+    ax.clabel(cl, fontsize=7, fmt=_short)
+    bar = fig.colorbar(cs, ax=ax, label=zlabel)
+    bar.locator = _locator()
+    bar.formatter = _make_short()
+    bar.update_ticks()
+    if points:
+        x = np.asarray(model.x, dtype=float)
+        others = [m for m in range(k) if m not in (i, j)]
+        inside = np.all(np.abs(x[:, others] - hold[others]) < 1e-9, axis=1) if others else np.ones(len(x), bool)
+        px = fi.to_actual(x[:, i]) if actual else x[:, i]
+        py = fj.to_actual(x[:, j]) if actual else x[:, j]
+        ax.scatter(px[~inside], py[~inside], s=18, facecolor="none", edgecolor="r", linewidth=0.8,
+                   zorder=4, label="design point (other levels)")
+        ax.scatter(px[inside], py[inside], s=22, color="r", edgecolor="k", linewidth=0.4, zorder=5,
+                   label="design point (in this plane)")
+        ax3.scatter(px[inside], py[inside], np.asarray(model.y, dtype=float)[inside], color="r", s=10,
+                    depthshade=False)
+        ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(0, -0.12), ncol=2, frameon=False)
     ax.set_xlabel(_factor_label(fi))
     ax.set_ylabel(_factor_label(fj))
+    _short_ticks(ax)
     others = [f"{f.name} = {f.to_actual(hold[m]) if actual else hold[m]:.3g}"
               for m, f in enumerate(model.factors) if m not in (i, j)]
-    fig.suptitle(title or (f"{model.response}: {fi.name} × {fj.name}"
+    fig.suptitle(title or (f"{zlabel}: {fi.name} × {fj.name}"
                            + (f" ({', '.join(others)})" if others else "") + (f", {label}" if label else "")),
                  fontsize=10)
     return fig
@@ -130,7 +186,7 @@ def perturbation_figure(model, reference=None, title: str | None = None, label: 
         ax.plot(g, model.predict(pts), label=f.name)
     ax.axvline(0, color="0.6", lw=0.6)
     ax.set_xlabel("Deviation from reference point (coded units)")
-    ax.set_ylabel(model.response)
+    ax.set_ylabel(response_label(model.response))
     ax.legend(fontsize=8)
     ax.set_title(title or _with_label(f"Perturbation of {model.response}", label), fontsize=10)
     return fig
@@ -188,6 +244,20 @@ def solution_set_figure(result, title: str | None = None) -> Figure:
     axes[-1].set_xlabel("actual level (grey: design range, orange: solution set, "
                         "blue: solutions, star: best)", fontsize=8)
     return fig
+
+
+def _locator():
+    from matplotlib.ticker import MaxNLocator
+
+    return MaxNLocator(nbins=5)
+
+
+def _make_short():
+    from matplotlib.ticker import FuncFormatter
+
+    return FuncFormatter(_short)
+
+
 
 
 def save_figure(fig: Figure, path, dpi: int = 150) -> Path:

@@ -22,17 +22,16 @@ import base64
 import html
 import io
 import json
-import math
 import re
 from datetime import datetime, timezone
 from pathlib import Path
 
 from demcal._files import write_atomic  # noqa: F401  (re-exported: report code writes through it)
 
-import numpy as np
 import pandas as pd
 
 from demcal.report.figures import figure_png_bytes
+from demcal.rsm.tables import display_table, format_number  # noqa: F401  (one formatter: CLI and report)
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;
@@ -48,32 +47,6 @@ padding:.4em .8em}.warning::before{content:"Warning: ";font-weight:700}
 code,pre{background:#f4f4f8;padding:.1em .3em}pre{padding:.6em;overflow-x:auto;white-space:pre-wrap}
 .small{font-size:.85em;color:#555}
 """
-
-
-def format_number(v, digits: int = 4, column: str = "") -> str:
-    """Readable number: p-values as ``< 0.0001`` / 4 decimals, tiny or huge values in E
-    notation, otherwise ``digits`` significant digits; NaN and None as blank."""
-    if v is None or isinstance(v, str):
-        return "" if v is None else v
-    if isinstance(v, (bool, np.bool_)):
-        return str(bool(v))
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        return str(v)
-    if not math.isfinite(x):
-        return "" if math.isnan(x) else ("∞" if x > 0 else "−∞")
-    if column.lower() in ("p", "p-value", "p_value", "prob > f"):
-        return "< 0.0001" if x < 1e-4 else f"{x:.4f}"
-    if x == 0:
-        return "0"
-    if abs(x) < 1e-3 or abs(x) >= 1e7:
-        return f"{x:.{max(digits - 1, 1)}e}"
-    if float(x).is_integer() and abs(x) < 1e7:
-        return f"{int(x)}"
-    return f"{x:.{digits}g}"
 
 
 def _figure_bytes(fig, fmt: str, dpi: int) -> bytes:
@@ -104,13 +77,17 @@ class HtmlReport:
     figure_formats : tuple of str
         File formats written for each figure besides the embedded PNG ("png", "svg").
     dpi : int
-        Resolution of the PNG (embedded and written).
+        Resolution of the PNG embedded in the HTML (110 dpi keeps the file small).
+    file_dpi : int
+        Resolution of the PNG files in ``figures/`` (300 dpi, for print).
     """
 
-    def __init__(self, title: str, out_dir, figure_formats=("png", "svg"), dpi: int = 110):
+    def __init__(self, title: str, out_dir, figure_formats=("png", "svg"), dpi: int = 110,
+                 file_dpi: int = 300):
         self.title = title
         self.figure_formats = tuple(figure_formats)
         self.dpi = dpi
+        self.file_dpi = file_dpi
         self.out_dir = Path(out_dir)
         self.blocks: list[str] = []
         self._names: set[str] = set()
@@ -168,6 +145,7 @@ class HtmlReport:
             text = json.dumps(json.loads(records.to_json(orient="records", double_precision=15)), indent=1)
             write_atomic(tdir / f"{name}.csv", df.to_csv(index=index))
             write_atomic(tdir / f"{name}.json", text)
+        df = display_table(df)  # Design-Expert headers and term labels; the files keep machine names
         head = []
         if index:
             head.append(f'<th class="t">{html.escape(str(df.index.name or ""))}</th>')
@@ -189,14 +167,15 @@ class HtmlReport:
         return name
 
     def figure(self, fig, name: str, caption: str | None = None, write_files: bool = True) -> str:
-        """A matplotlib figure embedded as base64 PNG; also saved as PNG and SVG files."""
+        """A matplotlib figure embedded as base64 PNG (at ``dpi``); also saved as PNG (at
+        ``file_dpi``) and SVG files."""
         name = self._unique(name)
         png = figure_png_bytes(fig, self.dpi)
         if write_files and self.figure_formats:
             fdir = self.out_dir / "figures"
             fdir.mkdir(exist_ok=True)
             for fmt in self.figure_formats:
-                write_atomic(fdir / f"{name}.{fmt}", png if fmt == "png" else _figure_bytes(fig, fmt, self.dpi))
+                write_atomic(fdir / f"{name}.{fmt}", _figure_bytes(fig, fmt, self.file_dpi))
         data = base64.b64encode(png).decode("ascii")
         cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
         self.blocks.append(f'<figure><img alt="{html.escape(name)}" '

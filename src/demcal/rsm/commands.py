@@ -36,6 +36,7 @@ def fit_from_args(args) -> tuple[ResponseSurface, list[str]]:
     """Read, fit and (optionally) reduce as ``demcal analyze`` does; returns model and notes."""
     from demcal.rsm.fit import fit_response_surface
     from demcal.rsm.reduce import backward_elimination
+    from demcal.rsm.tables import format_p, term_label
 
     runs = read_runs_from_args(args, [args.response])
     model = fit_response_surface(runs.coded, runs.responses[args.response], runs.factors,
@@ -48,17 +49,25 @@ def fit_from_args(args) -> tuple[ResponseSurface, list[str]]:
         model = red.model
         if red.removed:
             notes.append("backward elimination removed " + ", ".join(
-                f"{t} (p = {p:.3g})" for t, p in red.removed) + ".")
+                f"{term_label(t)} ({format_p(p)})" for t, p in red.removed) + ".")
         notes.extend(n for n in model.notes if n not in notes)
     return model, notes
 
 
-def _fmt(df: pd.DataFrame) -> str:
-    return df.to_string(float_format=lambda v: f"{v:.6g}", na_rep="")
+def _statistics(f) -> list[str]:
+    """The fit statistics as two aligned label/value columns (Design-Expert's layout)."""
+    from demcal.rsm.tables import format_number
+
+    rows = [("Std. Dev.", f.std_dev, "R²", f.r2), ("Mean", f.mean, "Adjusted R²", f.adj_r2),
+            ("C.V. %", f.cv_percent, "Predicted R²", f.pred_r2),
+            ("PRESS", f.press, "Adeq Precision", f.adeq_precision)]
+    return [f"  {a:<10}{format_number(x):>10}    {b:<15}{format_number(y):>10}" for a, x, b, y in rows]
 
 
 def run(args) -> int:
     from demcal.rsm.summary import fit_summary
+    from demcal.rsm.tables import format_table
+    from demcal.rsm.terms import display_name
 
     model, notes = fit_from_args(args)
     for n in notes:
@@ -66,24 +75,29 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(model.to_dict(), indent=1))
         return 0
-    out = [f"Response {model.response}: {model.order} model, {model.n} runs, factors "
+    reduced = args.reduce is not None
+    kind = (f"{args.model} model reduced by backward elimination (alpha = {args.reduce:g})" if reduced
+            else f"{model.order} model")
+    out = [f"Response {model.response}: {kind}, {model.n} runs, factors "
            + ", ".join(f.describe() for f in model.factors), "", "ANOVA (partial sums of squares)",
-           _fmt(model.display_anova()), "", "Fit statistics"]
-    f = model.fit
-    out.append(f"  Std. Dev. {f.std_dev:.4g}   Mean {f.mean:.4g}   C.V. % {f.cv_percent:.3g}   "
-               f"PRESS {f.press:.4g}")
-    out.append(f"  R² {f.r2:.4f}   Adjusted R² {f.adj_r2:.4f}   Predicted R² {f.pred_r2:.4f}   "
-               f"Adeq Precision {f.adeq_precision:.3f}")
-    out += ["", "Coefficients (coded)", _fmt(model.coefficient_table), "",
+           format_table(model.display_anova()), "", "Fit statistics"]
+    out += _statistics(model.fit)
+    out += ["", "Coefficients (coded)", format_table(model.coefficient_table), "",
             "Equation in coded factors", "  " + model.equation("coded"), "",
             "Equation in actual factors", "  " + model.equation("actual")]
     try:
         s = fit_summary(model.x, model.y, model.factors)
-        out += ["", "Fit summary: sequential model sums of squares", _fmt(s.sequential)]
+        out += ["", "Fit summary: sequential model sums of squares", format_table(s.sequential)]
         if not s.lack_of_fit.empty:
-            out += ["", "Lack-of-fit tests", _fmt(s.lack_of_fit)]
-        out += ["", "Model summary statistics", _fmt(s.model_stats),
-                f"Suggested model: {s.suggested or 'none significant'}"]
+            out += ["", "Lack-of-fit tests", format_table(s.lack_of_fit)]
+        out += ["", "Model summary statistics", format_table(s.model_stats)]
+        if reduced:  # the summary compares whole orders; the model above is neither of them
+            out.append(f"Fit summary's suggested order: {s.suggested or 'none significant'} (the model "
+                       f"above is the reduced {args.model} model, terms "
+                       + ", ".join(display_name(t, model.names) for t in model.terms if any(t))
+                       + ")")
+        else:
+            out.append(f"Suggested model: {s.suggested or 'none significant'}")
     except DataError as exc:  # too few runs for the summary; the fit above stands on its own
         print(f"demcal: note: fit summary left out: {exc}", file=sys.stderr)
     print("\n".join(out))

@@ -20,6 +20,12 @@ _TOL = 1e-9
 _MAX_CODED = 4.0
 #: The first comment line of a file written by ``demcal design -o``.
 _DESIGN_LINE = re.compile(r"^#\s*demcal design:.*?(?P<coded>\(coded levels\))?\s*$")
+#: Columns of a campaign's run table that are never factors: the store's bookkeeping
+#: (besides :data:`demcal.doe.io.BOOKKEEPING_COLUMNS`).
+RUN_BOOKKEEPING = ("seed", "replicate", "status", "wall_s", "key", "artifacts_dir", "condition")
+#: Suffix of the actual-level copy of a coded factor column in the report's design
+#: table (``tables/<campaign>_design_results.csv``: ``A``, ``A actual``, ...).
+ACTUAL_SUFFIX = " actual"
 
 
 @dataclass(frozen=True)
@@ -150,7 +156,8 @@ def runs_from_frame(
     levels = dict(levels or {})
     ys = {r: numeric_column(df, r, source) for r in responses}
     if factor_names is None:
-        factor_names = infer_factor_names(df, responses)
+        factor_names = [c for c in infer_factor_names(df, responses)
+                        if str(c).lower() not in RUN_BOOKKEEPING and not str(c).endswith(ACTUAL_SUFFIX)]
         if not factor_names:
             raise DataError(f"{source} has no numeric factor columns besides the response.")
     factor_names = list(factor_names)
@@ -228,13 +235,52 @@ def read_table_checked(path, text: str | None = None):
     return read_table(path, text)
 
 
+def _tidy(v: float) -> float:
+    """``v`` to 12 significant digits: 0.1 - 0.1 read back from a CSV is 0, not 2.8e-17."""
+    v = float(f"{float(v):.12g}")
+    return 0.0 if abs(v) < 1e-12 else v
+
+
+def paired_levels(df: pd.DataFrame, source: str = "the table") -> dict:
+    """Factors of a table that holds each factor twice, coded (``A``) and actual
+    (``A actual``), as the campaign report's design table does; ``{}`` for any other.
+
+    The low and high levels are the actual values at coded -1 and +1, read from the
+    straight line through the pairs; pairs off that line are refused.
+    """
+    out = {}
+    for c in df.columns:
+        actual = f"{c}{ACTUAL_SUFFIX}"
+        if actual not in df.columns:
+            continue
+        x = numeric_column(df, c, source)
+        a = numeric_column(df, actual, source)
+        if x.max() == x.min():
+            raise DataError(f"column {c!r} of {source} has the same value in every run, so it "
+                            "cannot be a factor; leave it out with --factors.")
+        slope, centre = np.polyfit(x, a, 1)
+        if slope <= 0 or not np.allclose(centre + slope * x, a, rtol=1e-6, atol=1e-9 * max(abs(slope), 1e-300)):
+            raise DataError(f"columns {c!r} and {actual!r} of {source} are not coded and actual "
+                            f"levels of one factor (not on one straight line); give the factors "
+                            f"with --factors and --factor {c}=LOW:HIGH.")
+        out[c] = Factor(c, _tidy(centre - slope), _tidy(centre + slope))
+    return out
+
+
 def read_runs(path, responses, factor_names=None, levels: dict | None = None) -> Runs:
-    """Read runs from a CSV; factor levels come from ``levels`` or the file's comments."""
+    """Read runs from a CSV; factor levels come from ``levels``, the file's comments or,
+    in the campaign report's design table, the actual-level copies of the coded factor
+    columns (``A`` and ``A actual``; see :func:`paired_levels`)."""
     text = read_csv_text(path)
     df = read_table_checked(path, text)
     found = read_factor_comments(path, text)
     merged = {k: v for k, v in found.items() if k in df.columns}
+    declared = _declared_units(path, text)
+    if not merged and declared is None:
+        paired = paired_levels(df, str(path))
+        if paired and (factor_names is None or set(factor_names) <= set(paired)):
+            merged, declared = paired, True
     if factor_names is None and merged:
         factor_names = [c for c in df.columns if c in merged]
     merged.update(levels or {})
-    return runs_from_frame(df, responses, factor_names, merged, str(path), _declared_units(path, text))
+    return runs_from_frame(df, responses, factor_names, merged, str(path), declared)
