@@ -54,6 +54,11 @@ def test_guide_tables_match_the_code():
     text = GUIDE.read_text(encoding="utf-8")
     assert guide_tables.render(text) == text, (
         "docs/guide.md's key tables or example files are out of date; run python scripts/guide_tables.py")
+    # every generated block is found and filled (an empty block would match itself)
+    blocks = list(guide_tables._BLOCK.finditer(text))
+    assert len(blocks) >= 10 and all(m.group("body").strip() for m in blocks), \
+        [m.group("name") for m in blocks if not m.group("body").strip()]
+    assert "`particle.static_friction`" in text and "`max_replicates`" in text
 
 
 def test_guide_blocks_are_found():

@@ -121,3 +121,9 @@ def printable(text: str, limit: int = 80) -> str:
     """``text`` for a message: control characters as ``\\xNN``, cut to ``limit`` characters."""
     out = "".join(ch if ch.isprintable() else ascii(ch)[1:-1] for ch in str(text))
     return out if len(out) <= limit else out[: limit - 3] + "..."
+
+
+def significant(value: float, digits: int = 12) -> float:
+    """``value`` to ``digits`` significant digits: a level or a calibrated parameter without
+    binary noise (0.6000000000000001 -> 0.6 at 12 digits; 0.60734 -> 0.607 at 3)."""
+    return float(f"{float(value):.{digits}g}")

@@ -18,7 +18,6 @@ geometry the particles cannot fit in, is reported in one sentence with exit stat
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 
@@ -63,11 +62,11 @@ def parse_sets(items) -> dict:
     return out
 
 
-def settings_help(experiment, profile: str) -> str:
-    """The settings table of a test: key, default, unit, allowed range, description."""
-    table = experiment.settings(profile)
+def settings_rows(experiment, profile: str) -> list[tuple[str, str, str, str, str]]:
+    """``(key, default, unit, allowed, description)`` of every setting of a test, as text
+    (what `demcal bench NAME --help` and docs/guide.md show)."""
     rows = []
-    for key, s in table.items():
+    for key, s in experiment.settings(profile).items():
         if s.choices:
             allowed = "|".join(s.choices)
         elif s.low is not None or s.high is not None:
@@ -76,6 +75,12 @@ def settings_help(experiment, profile: str) -> str:
             allowed = ""
         default = f"{s.default:g}" if isinstance(s.default, float) else str(s.default)
         rows.append((key, default, s.unit, allowed, s.help))
+    return rows
+
+
+def settings_help(experiment, profile: str) -> str:
+    """The settings table of a test: key, default, unit, allowed range, description."""
+    rows = settings_rows(experiment, profile)
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     w2 = max(len(r[2]) for r in rows)

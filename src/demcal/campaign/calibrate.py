@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from demcal._checks import significant
 from demcal.campaign.config import Campaign, Condition
 from demcal.campaign.runner import check_store_owner, design_results, run_specs
 from demcal.campaign.store import RunRecord, RunSpec, Store, write_json_atomic
@@ -188,10 +189,7 @@ class Calibration:
 
 def _loop_dict(campaign: Campaign, loop) -> dict[str, Any]:
     """The loop's status, boxes, history and discrepancy models, for calibration.json."""
-    kinds: dict[str, int] = {}
-    for step in loop.history:
-        kinds[step.stage] = kinds.get(step.stage, 0) + step.runs
-    return {"status": loop.status, "status_reason": loop.reason,
+    return {"status": loop.status, "runs_by_stage": loop.runs_by_stage(), "status_reason": loop.reason,
             "production_profile": production_profile(campaign), "cheap_profile": campaign.profile,
             "box": loop.box.to_dict(campaign), "boxes": [b.to_dict(campaign) for b in loop.boxes],
             "history": [step.to_dict() for step in loop.history],
@@ -204,7 +202,7 @@ def _num(value: float) -> float | None:
 
 
 def _round(value: float, digits: int = PARAMETER_DIGITS) -> float:
-    return float(f"{value:.{digits}g}")
+    return significant(value, digits)
 
 
 def fit_models(campaign: Campaign, table: pd.DataFrame):

@@ -109,12 +109,8 @@ def _calibrate(args) -> int:
     from demcal.campaign.calibrate import calibrate, describe
 
     campaign = _load(args, simulate=True)
-    if args.production:
-        import dataclasses
-
-        campaign.with_profile(args.production)  # one sentence if it does not exist or does not suit
-        campaign = dataclasses.replace(campaign, calibration=dataclasses.replace(
-            campaign.calibration, production=args.production))
+    if args.production:  # one sentence if it does not exist or does not suit the campaign
+        campaign = campaign.with_production(args.production)
     calibration = calibrate(campaign, workers=args.workers, scheduler=args.scheduler, progress=not args.quiet,
                             retry_failed=args.retry_failed)
     print(describe(calibration))

@@ -158,7 +158,7 @@ class CalibrationConfig:
     box_moves: int = 3  #: most box moves per condition
     path_points: int = 3  #: runs along the steepest path beyond the box, per move
     path_replicates: int = 1  #: seeds per path point
-    budget_runs: int | None = None  #: most runs in the store (design runs included)
+    budget_runs: int | None = None  #: most runs the calibration uses (its design included)
     budget_cpu_hours: float | None = None  #: most run hours (sum of the runs' wall times)
 
 
@@ -221,6 +221,12 @@ class Campaign:
         experiment = get_experiment(self.test)
         resolve_settings(experiment, self.settings, profile)
         return dataclasses.replace(self, profile=profile)
+
+    def with_production(self, production: str) -> "Campaign":
+        """The same campaign verified at another profile (``[calibration] production``);
+        its settings must suit that profile."""
+        self.with_profile(production)
+        return dataclasses.replace(self, calibration=dataclasses.replace(self.calibration, production=production))
 
     def with_workdir(self, workdir: Path) -> "Campaign":
         return dataclasses.replace(self, workdir=Path(workdir))

@@ -50,8 +50,8 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
     # The loop's two fidelities: designs at the cheap profile, verification at the
     # production one (`--profile paper`: designs at quick, verified at paper).
     cheap = "quick" if profile == "paper" else profile
-    campaigns = [_with_production(load_campaign(folder / name, import_plugins=True).with_profile(cheap),
-                                  profile) for name in CAMPAIGNS]
+    campaigns = [load_campaign(folder / name, import_plugins=True).with_profile(cheap).with_production(profile)
+                 for name in CAMPAIGNS]
 
     config = campaigns[0].executor
     executor = make_executor(config.kind, config.workers if workers is None else workers, config.scheduler,
@@ -73,14 +73,6 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
                         title=f"demcal demo: the residual-film-soil calibration (profile {profile})")
     _say(f"demo finished in {(time.perf_counter() - start) / 60:.1f} min on {executor.description}.")
     return path
-
-
-def _with_production(campaign, production: str):
-    """The campaign verified at ``production`` (the example files name none)."""
-    import dataclasses
-
-    campaign.with_profile(production)  # its settings must suit that profile
-    return dataclasses.replace(campaign, calibration=dataclasses.replace(campaign.calibration, production=production))
 
 
 def _say(text: str) -> None:

@@ -52,6 +52,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import pandas as pd
 
+from demcal._checks import significant
 from demcal.campaign.config import Campaign, Condition
 from demcal.campaign.store import RunRecord, RunSpec
 
@@ -88,7 +89,7 @@ class Box:
         """The campaign with this box's factor levels (and its own design seeds)."""
         if self.index == 0:
             return campaign
-        factors = tuple(dataclasses.replace(f, low=_round(lo), high=_round(hi))
+        factors = tuple(dataclasses.replace(f, low=significant(lo), high=significant(hi))
                         for f, lo, hi in zip(campaign.factors, self.low, self.high))
         return dataclasses.replace(campaign, factors=factors, seed=campaign.seed + BOX_SEED * self.index)
 
@@ -100,12 +101,8 @@ class Box:
 
     def to_dict(self, campaign: Campaign) -> dict[str, Any]:
         return {"index": self.index, "reason": self.reason,
-                "low": {f.parameter: _round(v) for f, v in zip(campaign.factors, self.low)},
-                "high": {f.parameter: _round(v) for f, v in zip(campaign.factors, self.high)}}
-
-
-def _round(value: float, digits: int = 12) -> float:
-    return float(f"{float(value):.{digits}g}")
+                "low": {f.parameter: significant(v) for f, v in zip(campaign.factors, self.low)},
+                "high": {f.parameter: significant(v) for f, v in zip(campaign.factors, self.high)}}
 
 
 def _clean(values, limits: np.ndarray) -> np.ndarray:
@@ -143,7 +140,7 @@ def fit_box(campaign: Campaign, box: Box, records: Sequence[RunRecord], cheap: s
         table = design_table
     else:
         rows = []
-        for r in _own(campaign, records, cheap, kinds=("design", "path")):
+        for r in campaign_runs(campaign, records, cheap, kinds=("design", "path")):
             x = _point(campaign, r)
             coded = box.to_coded(x)
             if np.all(np.abs(coded) <= 1 + INSIDE_TOL):
@@ -154,17 +151,31 @@ def fit_box(campaign: Campaign, box: Box, records: Sequence[RunRecord], cheap: s
     return fit_models(boxed, table) + (table,)
 
 
-def _own(campaign: Campaign, records: Sequence[RunRecord], profile: str, kinds: tuple[str, ...]):
-    """Done runs of this campaign's test at ``profile`` with its fixed settings."""
+def campaign_runs(campaign: Campaign, records: Sequence[RunRecord], profile: str | None = None,
+                  kinds: tuple[str, ...] | None = None):
+    """Done runs of this campaign's test with its fixed settings (and every factor set),
+    at ``profile`` and of ``kinds`` when given."""
     params = {f.parameter for f in campaign.factors}
     fixed = dict(campaign.settings)
     for r in records:
-        if (r.status != "done" or r.test != campaign.test or r.profile != profile or r.kind not in kinds
-                or not params <= set(r.parameters)):
+        if (r.status != "done" or r.test != campaign.test or (profile is not None and r.profile != profile)
+                or (kinds is not None and r.kind not in kinds) or not params <= set(r.parameters)):
             continue
         if {k: v for k, v in r.settings.items() if k not in params} != fixed:
             continue
         yield r
+
+
+def pooled_sd(groups) -> tuple[float, int]:
+    """The within-group standard deviation pooled over ``groups`` (sequences of values;
+    groups of one add nothing) and its degrees of freedom: the pure error of the ANOVA."""
+    ss, df = 0.0, 0
+    for values in groups:
+        v = np.asarray(values, dtype=float)
+        if len(v) > 1:
+            ss += float(((v - v.mean()) ** 2).sum())
+            df += len(v) - 1
+    return (math.sqrt(ss / df) if df else float("nan")), df
 
 
 def _point(campaign: Campaign, record: RunRecord) -> np.ndarray:
@@ -283,7 +294,7 @@ class Step:
     iteration: int
     box: int
     stage: str  #: "solve", "path", "design", "production"
-    runs: int  #: runs this step asked for (done before or now)
+    runs: int  #: runs this step added (runs the loop had asked for before are not counted again)
     text: str
     predicted: float | None = None
     simulated: float | None = None
@@ -315,9 +326,17 @@ class LoopResult:
     notes: list[str]
     cheap_target: dict[str, float]
 
+    def runs_by_stage(self) -> dict[str, int]:
+        """Runs each stage asked for ("path", "design", "production"), done before or now."""
+        out: dict[str, int] = {}
+        for step in self.history:
+            out[step.stage] = out.get(step.stage, 0) + step.runs
+        return out
+
 
 class Budget:
-    """``[budget]``: runs in the store and their summed wall time."""
+    """``[budget]``: the runs the calibration uses (its design and every run the loop asked
+    for, in order, so that a replay decides the same) and their summed wall time."""
 
     def __init__(self, campaign: Campaign):
         self.runs = campaign.calibration.budget_runs
@@ -326,7 +345,7 @@ class Budget:
     def exceeded(self, records: Sequence[RunRecord], new: int) -> str | None:
         used = len([r for r in records if r.status in ("done", "failed", "running")])
         if self.runs is not None and used + new > self.runs:
-            return (f"the budget of {self.runs} runs is spent ({used} in the store, {new} more needed); "
+            return (f"the budget of {self.runs} runs is spent ({used} used by this calibration, {new} more needed); "
                     f"raise [budget] runs to go on")
         hours = sum((r.wall_s or 0.0) for r in records if r.status in ("done", "failed")) / 3600.0
         if self.hours is not None and hours >= self.hours:
@@ -429,7 +448,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                         **state)
         specs = _production_specs(campaign, condition, ci, chosen, production, replicates)
         state["specs"] = specs
-        done, stopped = _spend(specs, f"{campaign.name} {condition.name} production",
+        done, new, stopped = _spend(specs, f"{campaign.name} {condition.name} production",
                                f"the production runs at {_show(chosen)}", campaign, run, records, budget)
         if stopped:
             return stop(*stopped, **state)
@@ -447,7 +466,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             failed = [r for r in done if r.status != "done"]
             return stop(NOT_VERIFIED, f"{len(failed)} production runs failed ({failed[0].label}: "
                         f"{failed[0].error}); rerun them with --retry-failed", **state)
-        noise = _pooled_sd(campaign, _own(campaign, records(), production, kinds=("verification",)), responses)
+        noise = _production_noise(campaign_runs(campaign, records(), production, kinds=("verification",)), responses)
         verdict = []
         for t in condition.targets:
             values = np.array([r.responses[t.response] for r in ok])
@@ -459,7 +478,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             inside = t.sd is None or abs(mean - t.mean) <= t.sd
             narrow = t.sd is None or half < t.sd
             verdict.append((t, mean, half, inside, narrow, sd))
-            history.append(Step(iteration, box.index, "production", len(specs),
+            history.append(Step(iteration, box.index, "production", new,
                                 f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %) against "
                                 f"{t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
                                 predicted=predicted[t.response], simulated=mean, half_width=half,
@@ -498,14 +517,16 @@ def _production_specs(campaign, condition, ci, chosen, production, replicates) -
 
 
 def _spend(specs, desc, what, campaign, run, records, budget):
-    """Run ``specs`` within the budget: ``(records, None)``, or ``(None, (status, reason))``."""
-    reason = budget.exceeded(records(), _missing(specs, records()))
+    """Run ``specs`` within the budget: ``(records, new, None)`` with ``new`` the runs the
+    loop had not asked for before, or ``(None, 0, (status, reason))``."""
+    new = _missing(specs, records())
+    reason = budget.exceeded(records(), new)
     if reason:
-        return None, (BUDGET, reason)
+        return None, 0, (BUDGET, reason)
     done = run(specs, desc)
     if done is None:
-        return None, (UNFINISHED, f"{what} are not done yet; run `demcal calibrate {campaign.path}` to finish them")
-    return done, None
+        return None, 0, (UNFINISHED, f"{what} are not done yet; run `demcal calibrate {campaign.path}` to finish them")
+    return done, new, None
 
 
 def _missing(specs, records) -> int:
@@ -513,21 +534,13 @@ def _missing(specs, records) -> int:
     return len({s.key for s in specs} - done)
 
 
-def _pooled_sd(campaign, runs, responses) -> dict[str, tuple[float, int]]:
-    """Within-point sd of the production runs pooled over points, and its degrees of freedom."""
+def _production_noise(runs, responses) -> dict[str, tuple[float, int]]:
+    """Per response: the production runs' seed-to-seed sd pooled over their points, and its df."""
     groups: dict[tuple, list[RunRecord]] = {}
     for r in runs:
         groups.setdefault(tuple(sorted(r.parameters.items())), []).append(r)
-    out = {}
-    for name in responses:
-        ss, df = 0.0, 0
-        for rows in groups.values():
-            v = np.array([r.responses[name] for r in rows if name in r.responses])
-            if len(v) > 1:
-                ss += float(((v - v.mean()) ** 2).sum())
-                df += len(v) - 1
-        out[name] = (math.sqrt(ss / df) if df else float("nan"), df)
-    return out
+    return {name: pooled_sd([r.responses[name] for r in rows if name in r.responses] for rows in groups.values())
+            for name in responses}
 
 
 def _show(params: dict[str, float]) -> str:
@@ -577,7 +590,7 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
         return OUT_OF_REACH, (f"{response} = {target:g} lies beyond what the test reaches within the parameters' "
                               f"physical limits: they stop the path of steepest {'ascent' if sign > 0 else 'descent'} "
                               f"from box {box.index} at once")
-    done, stopped = _spend(specs, f"{campaign.name} {condition.name} path", f"the path runs of box {box.index}",
+    done, new, stopped = _spend(specs, f"{campaign.name} {condition.name} path", f"the path runs of box {box.index}",
                            campaign, run, records, budget)
     if stopped:
         return stopped
@@ -587,11 +600,11 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
             by_step.setdefault(j, []).append(float(rec.responses[response]))
     ys = [float(model.predict(points[0]))] + [float(np.mean(by_step[j])) if j in by_step else np.nan
                                                for j in ks[1:]]
-    history.append(Step(iteration, box.index, "path", len(specs),
+    history.append(Step(iteration, box.index, "path", new,
                         f"target {target:g} outside box {box.index} ({lo:.2f} to {hi:.2f}); steepest "
                         f"{'ascent' if sign > 0 else 'descent'} gave "
                         + ", ".join(f"{y:.2f}" for y in ys[1:]) + f" at steps {', '.join(map(str, ks[1:]))}",
-                        point={f.parameter: _round(v, 4) for f, v in zip(campaign.factors, box.to_actual(points[-1]))}))
+                        point={f.parameter: significant(v, 4) for f, v in zip(campaign.factors, box.to_actual(points[-1]))}))
     crossing = None
     for i in range(1, len(ys)):
         if np.isfinite(ys[i]) and sign * (ys[i] - target) >= 0:
@@ -615,21 +628,19 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     half0 = np.array([0.5 * (f.high - f.low) for f in campaign.factors])
     half = np.minimum(half0, 0.5 * (limits[:, 1] - limits[:, 0]))
     centre = np.clip(centre, limits[:, 0] + half, limits[:, 1] - half)
-    new = Box(box.index + 1, tuple(_clean(centre - half, limits)), tuple(_clean(centre + half, limits)),
-              reason=(f"move {moves + 1}: {response} target {target:g} outside box {box.index} "
-                      f"({lo:.2f} to {hi:.2f}); the steepest path crossed it near "
-                      + _show({f.parameter: _round(c, 3) for f, c in zip(campaign.factors, centre)})))
+    moved = Box(box.index + 1, tuple(_clean(centre - half, limits)), tuple(_clean(centre + half, limits)),
+                reason=(f"move {moves + 1}: {response} target {target:g} outside box {box.index} "
+                        f"({lo:.2f} to {hi:.2f}); the steepest path crossed it near "
+                        + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})))
     from demcal.campaign.runner import plan_design
 
-    plan = plan_design(new.campaign(campaign))
-    specs = [dataclasses.replace(s, label=f"box {new.index} {s.label}") for s in plan.specs]
-    before = {r.key for r in records() if r.status == "done"}
-    done, stopped = _spend(specs, f"{campaign.name} box {new.index} design", f"the design runs of box {new.index}",
-                           campaign, run, records, budget)
+    plan = plan_design(moved.campaign(campaign))
+    specs = [dataclasses.replace(s, label=f"box {moved.index} {s.label}") for s in plan.specs]
+    done, added, stopped = _spend(specs, f"{campaign.name} box {moved.index} design",
+                                  f"the design runs of box {moved.index}", campaign, run, records, budget)
     if stopped:
         return stopped
-    history.append(Step(iteration, new.index, "design", len(specs),
-                        f"box {new.index}: " + _show({f.parameter: _round(c, 3) for f, c in zip(campaign.factors, centre)})
-                        + f" ± half-widths; {len(specs)} design runs ({len([s for s in specs if s.key in before])} "
-                          f"done before)"))
-    return new
+    history.append(Step(iteration, moved.index, "design", added,
+                        f"box {moved.index}: " + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})
+                        + f" ± half-widths; {len(specs)} design runs ({len(specs) - added} done before)"))
+    return moved

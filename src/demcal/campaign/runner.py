@@ -29,6 +29,7 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
+from demcal._checks import significant
 from demcal.campaign.config import Campaign, DesignConfig
 from demcal.campaign.store import RunRecord, RunSpec, Store, StoreError, temp_name
 from demcal.errors import ConfigError, DataError
@@ -101,7 +102,7 @@ def design_matrix(design: DesignConfig, k: int) -> np.ndarray:
 
 def _round(value: float) -> float:
     """Actual levels without binary noise (0.6000000000000001 -> 0.6)."""
-    return float(f"{value:.12g}")
+    return significant(value, 12)
 
 
 def point_settings(campaign: Campaign, parameters: dict[str, float]) -> dict[str, Any]:

@@ -60,16 +60,12 @@ def compare(campaign: Campaign, response: str, records) -> list[Comparison]:
     ref = read_reference(campaign, response)
     if ref is None:
         return []
+    from demcal.campaign.loop import campaign_runs, pooled_sd
+
     names = campaign.factor_names
-    fixed = dict(campaign.settings)
-    params = [f.parameter for f in campaign.factors]
     by_profile: dict[str, dict[tuple, list[float]]] = {}
-    for r in records:
-        if r.status != "done" or r.test != campaign.test or response not in r.responses:
-            continue
-        if not set(params) <= set(r.parameters):
-            continue
-        if {k: v for k, v in r.settings.items() if k not in params} != fixed:
+    for r in campaign_runs(campaign, records):
+        if response not in r.responses:
             continue
         coded = tuple(round(float(f.to_coded(r.parameters[f.parameter])), 6) for f in campaign.factors)
         by_profile.setdefault(r.profile, {}).setdefault(coded, []).append(float(r.responses[response]))
@@ -88,12 +84,7 @@ def compare(campaign: Campaign, response: str, records) -> list[Comparison]:
         if len(rows) < 3:
             continue
         points = pd.DataFrame(rows)
-        ss, df = 0.0, 0
-        for values in groups.values():
-            if len(values) > 1:
-                ss += float(np.sum((np.array(values) - np.mean(values)) ** 2))
-                df += len(values) - 1
-        pooled = float(np.sqrt(ss / df)) if df else np.nan
+        pooled, _ = pooled_sd(groups.values())
         diff = points["demcal"] - points["published"]
         x, y = points["published"].to_numpy(), points["demcal"].to_numpy()
         slope = float(np.polyfit(x, y, 1)[0]) if np.ptp(x) > 0 else np.nan

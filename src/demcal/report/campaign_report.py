@@ -408,9 +408,7 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
     status, boxes, steps = [], [], []
     for result, loop in loops:
         name = result.condition.name
-        kinds: dict[str, int] = {}
-        for step in loop.history:
-            kinds[step.stage] = kinds.get(step.stage, 0) + step.runs
+        kinds = loop.runs_by_stage()
         status.append({"condition": name, "status": loop.status, "boxes": len(loop.boxes),
                        "path runs": kinds.get("path", 0), "new design runs": kinds.get("design", 0),
                        "production runs": len(result.verification), "discrepancy":
