@@ -7,14 +7,19 @@ contact_model="hertz_mindlin", rolling_model=None, dt_fraction=0.2,
 impact_speed=2.0, skin=None, domain=None, threads=None)``
 
 * ``sim.add_particles(template_or_radius, positions, orientations=None, scales=None,
-  velocities=None, angular_velocities=None, material=0, fixed=False, seed=0)`` ->
-  indices of the new particles; allowed at any time, also from a reporter during a run
-  (insertion at a rate). Refused with one sentence: non-finite numbers, arrays of the
-  wrong shape, particles outside ``domain`` or larger than a ``Box`` they are placed in,
-  and particles overlapping another by more than ``Simulation.overlap_tolerance``
-  (25 %) of the smaller sphere radius (a settled bed's few per cent pass).
-* ``sim.remove_particles(mask_or_indices)``
-* ``sim.run(duration=None, steps=None, reporters=[...])``: ``steps`` a whole number;
+  velocities=None, angular_velocities=None, material=0, fixed=False, seed=0,
+  radii=None, rotation=True)`` -> indices of the new particles; allowed at any time,
+  also from a reporter during a run (insertion at a rate). ``radii=`` adds single
+  spheres of those radii (one per particle, no template); ``rotation=False`` locks the
+  particles' rotation (they only translate). Refused with one sentence: non-finite
+  numbers, arrays of the wrong shape, particles outside ``domain`` or larger than a
+  ``Box`` they are placed in, and particles overlapping another by more than
+  ``Simulation.overlap_tolerance`` (0.25: 25 %) of the smaller sphere radius (a
+  settled bed's few per cent pass).
+* ``sim.remove_particles(mask_or_indices)``, ``sim.remove_wall(name)`` (also
+  mid-run: its contacts go with it)
+* ``sim.run(duration=None, steps=None, reporters=[...])`` -> ``RunSummary`` (steps,
+  simulated time, wall time, particle-steps per second); ``steps`` a whole number;
   a run by ``duration`` ends at that time even when particles added during the run
   shrink the automatic step. A given ``dt`` is checked against the stable limit again
   after every ``add_particles``.
@@ -22,10 +27,15 @@ impact_speed=2.0, skin=None, domain=None, threads=None)``
   torques, masses, inertias, radii, sphere_positions, sphere_body, ...`` (SI units)
 * ``sim.kinetic_energy()`` [J], ``sim.wall_forces()`` -> ``{group: (force, torque)}``,
   ``sim.contacts()``, ``sim.time`` [s], ``sim.step_count``, ``sim.dt`` [s],
-  ``sim.gravity`` (writable, e.g. to tilt a plane exactly)
-* ``sim.save_checkpoint(path)``, ``sim.load_checkpoint(path)`` (bit-identical restart)
+  ``sim.gravity`` (writable, e.g. to tilt a plane exactly), ``sim.gravity_schedule``
+  (a ramp or a constant-rate rotation of gravity, :mod:`demcal.dem.gravity`, set
+  once per window of steps within a stated tolerance)
+* ``sim.save_checkpoint(path)``, ``sim.load_checkpoint(path)`` (bit-identical restart);
+  ``demcal.dem.io.save_particles(path, sim)`` / ``load_particles(path)`` (a CSV file
+  of the particles, to start another simulation from a packing)
 
-Contact models (``contact_model``): ``"hertz_mindlin"`` (EDEM Hertz-Mindlin no slip),
+Contact models (``contact_model``, default ``"hertz_mindlin"``): ``"hertz_mindlin"``
+(EDEM Hertz-Mindlin no slip),
 ``"hysteretic_spring"`` (EDEM HSCM, the paper's Eq. 1-3), ``"linear"``; or a
 :class:`ContactModel` naming one sub-model per slot. Rolling models
 (``rolling_model``): ``"none"``, ``"type_a"`` (EDEM standard rolling friction, constant
@@ -59,6 +69,8 @@ _guard()
 _prefer_openmp()
 
 from .contact.registry import ContactModel  # noqa: E402
-from .simulation import Simulation, State
+from .gravity import GravityRamp, GravityRotation
+from .simulation import RunSummary, Simulation, State
 
-__all__ = ["Simulation", "State", "ContactModel"]
+__all__ = ["Simulation", "State", "RunSummary", "ContactModel", "GravityRamp",
+           "GravityRotation"]

@@ -8,8 +8,10 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import time as _time
+import warnings
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
@@ -24,6 +26,7 @@ from . import stepper as _stepper
 from . import timestep as _ts
 from .contact.kernel import HIST_WIDTH
 from .contact.registry import ContactModel
+from .gravity import GravitySchedule, as_schedule
 
 _NO_HALO = np.zeros(1, np.int64)                # an unsplit pair loop's empty halo index
 _NO_DEFERRED = np.zeros((0, HIST_WIDTH))
@@ -43,7 +46,8 @@ class State:
     ``velocities`` [m/s], ``omegas`` [rad/s] (world frame), ``quaternions`` (w, x, y, z;
     body principal frame -> world), ``angular_momenta`` [kg m2/s] (world),
     ``forces`` [N] and ``torques`` [N m] of the last evaluation (gravity included),
-    ``masses`` [kg], ``inertias`` [kg m2] (principal), ``materials`` (index),
+    ``masses`` [kg], ``inertias`` [kg m2] (principal; ``inf`` for a particle added
+    with ``rotation=False``), ``materials`` (index),
     ``templates`` (index into ``Simulation.templates``), ``scales`` (size factor),
     ``fixed`` (bool). Spheres (``ns`` rows): ``sphere_positions`` [m], ``radii`` [m],
     ``sphere_body`` (owning body).
@@ -74,6 +78,38 @@ class State:
         return self.positions.shape[0]
 
 
+@dataclass(frozen=True)
+class RunSummary:
+    """What one :meth:`Simulation.run` did.
+
+    ``steps`` taken, ``simulated_time`` [s] advanced, ``wall_time`` [s] it took,
+    ``particles`` at its end and ``particle_steps`` (particles present times steps,
+    summed over the run's stretches between reporters). Before issue 18 ``run()``
+    returned the simulation itself: reading one of the simulation's attributes here
+    still works, with a DeprecationWarning (use the simulation instead).
+    """
+
+    steps: int
+    simulated_time: float
+    wall_time: float
+    particles: int
+    particle_steps: int
+    simulation: "Simulation" = field(repr=False, compare=False)
+
+    @property
+    def particle_steps_per_second(self) -> float:
+        """Particle-steps per second of wall time (0 when no time was measured)."""
+        return self.particle_steps / self.wall_time if self.wall_time > 0 else 0.0
+
+    def __getattr__(self, name):
+        if name.startswith("__") or name == "simulation":
+            raise AttributeError(name)
+        value = getattr(self.simulation, name)
+        warnings.warn(f"run() now returns a RunSummary; read {name!r} from the simulation "
+                      f"(sim.{name}) instead.", DeprecationWarning, stacklevel=2)
+        return value
+
+
 class _SphereTemplate:
     """A single sphere of radius ``radius`` (internal; duck-types a template)."""
 
@@ -90,7 +126,8 @@ def _empty_walls():
     return dict(kind=np.zeros(0, np.int32), params=np.zeros((0, 16)),
                 velocity=np.zeros((0, 3)), omega=np.zeros((0, 3)),
                 origin=np.zeros((0, 3)), aabb=np.zeros((0, 6)),
-                material=np.zeros(0, np.int32), group=np.zeros(0, np.int32))
+                material=np.zeros(0, np.int32), group=np.zeros(0, np.int32),
+                id=np.zeros(0, np.int64))
 
 
 def _mean_inertia(inertia):
@@ -152,6 +189,18 @@ def _rows(value, n, width, name, unit):
     return np.broadcast_to(a, (n, width)).copy()
 
 
+def _flags(value, n, name):
+    """``value`` (one bool, or one per particle) as a new (n,) bool array; ConfigError
+    naming ``name`` otherwise."""
+    a = np.asarray(value)
+    if a.ndim == 0 and isinstance(a.item(), (bool, int)):
+        return np.full(n, bool(a))
+    if a.shape == (n,) and a.dtype == np.bool_:
+        return a.copy()
+    raise ConfigError(f"{name} must be True, False or one bool per particle (n = {n}), "
+                      f"got {value!r}.")
+
+
 def _random_quaternions(n, rng):
     """Uniform random rotations (Shoemake 1992, Graphics Gems III)."""
     u1, u2, u3 = rng.random((3, n))
@@ -172,12 +221,16 @@ class Simulation:
         One Interaction for all pairs, or ``{(a, b): Interaction, "default": ...}`` with
         materials by index or name (EDEM interaction table).
     walls : demcal.geometry.WallSet, optional
-        Walls (rows per ``.coord/WALLS.md``); their ``material`` indices refer to
-        ``materials``.
-    gravity : 3 floats
-        Gravitational acceleration [m/s2]; may be changed between runs or from a
-        reporter (``sim.gravity[:] = ...`` or ``sim.gravity = (gx, gy, gz)``), e.g. to
-        tilt a plane exactly. It is checked (three finite numbers) at every run.
+        Walls (the arrays of :mod:`demcal.geometry.wallset`, row layouts in
+        :mod:`demcal.geometry.kernels`); their ``material`` indices refer to
+        ``materials``. :meth:`remove_wall` takes one out, also during a run.
+    gravity : 3 floats or GravitySchedule
+        Gravitational acceleration [m/s2], default (0, 0, -9.81); may be changed
+        between runs or from a reporter (``sim.gravity[:] = ...`` or
+        ``sim.gravity = (gx, gy, gz)``), e.g. to tilt a plane exactly. It is checked
+        (three finite numbers) at every run. A schedule
+        (:mod:`demcal.dem.gravity`: a linear ramp or a constant-rate rotation) makes
+        it a function of time, see :attr:`gravity_schedule`.
     dt : float, optional
         Time step [s]. Default: ``dt_fraction`` of the Rayleigh time, capped at a tenth
         of the shortest contact duration (:mod:`demcal.dem.timestep`), derived again
@@ -185,12 +238,16 @@ class Simulation:
         of the particles present at the first run and again after every
         :meth:`add_particles`; above it the run raises :class:`ConfigError`.
     contact_model : {"hertz_mindlin", "hysteretic_spring", "linear"} or ContactModel
+        Default ``"hertz_mindlin"`` (EDEM's Hertz-Mindlin no slip).
     rolling_model : {"type_a", "cdt", "type_c", "none"}, optional
         Rolling resistance. With a preset name for ``contact_model`` the default is
-        ``"type_a"``. A :class:`ContactModel` names its own rolling model (its
-        ``rolling``, default ``"type_a"``): then leave ``rolling_model`` unset or give
-        the same model; a different one is refused rather than one of the two being
-        ignored (write ``ContactModel(..., rolling="type_c")``).
+        ``"type_a"`` (EDEM's standard rolling friction, the model the paper used in
+        EDEM; a constant torque that never lets a bed become perfectly static, see
+        docs/dem.md: name ``"type_c"`` where a static packing matters). A
+        :class:`ContactModel` names its own rolling model (its ``rolling``, default
+        ``"type_a"``): then leave ``rolling_model`` unset or give the same model; a
+        different one is refused rather than one of the two being ignored (write
+        ``ContactModel(..., rolling="type_c")``).
     dt_fraction : float
         Fraction of the Rayleigh time for the automatic step (default 0.2).
     impact_speed : float
@@ -235,7 +292,8 @@ class Simulation:
                 contact_model, "type_a" if rolling_model is None else rolling_model)
         self._models = np.array(self.contact_model.ids(), dtype=np.int64)
         self._table = np.ascontiguousarray(self.material_table.table)
-        self.gravity = gravity
+        schedule = gravity if isinstance(gravity, GravitySchedule) else None
+        self.gravity = gravity.at(0.0) if schedule is not None else gravity
         if dt is not None:
             if not (_is_real(dt) and math.isfinite(dt) and dt > 0):
                 raise ConfigError(f"dt must be a positive number of seconds, got {dt!r}.")
@@ -276,6 +334,7 @@ class Simulation:
         self.walls = walls
         self.time = 0.0
         self.step_count = 0
+        self.gravity_schedule = schedule
         self._wall_arrays()
         nmat = len(self.materials)
         if self._w["material"].size and (self._w["material"].min() < 0
@@ -283,6 +342,7 @@ class Simulation:
             raise ConfigError(f"a wall's material index is out of range (there are {nmat} "
                               "materials).")
         self.templates = []
+        self._unit_sphere = None   # the template of add_particles(radii=...)
         self.escaped = 0
         self._alloc_bodies(0, 0)
         self._alloc_lists(0, 0, 0)
@@ -310,6 +370,45 @@ class Simulation:
     @gravity.setter
     def gravity(self, value):
         self._gravity = _gravity_array(value)
+
+    @property
+    def gravity_schedule(self):
+        """Gravity as a function of time (:mod:`demcal.dem.gravity`), or None.
+
+        Set a :class:`~demcal.dem.gravity.GravityRamp` or
+        :class:`~demcal.dem.gravity.GravityRotation` to have :meth:`run` set
+        :attr:`gravity` itself, once per window of steps (from the step it is set
+        at), to the schedule's value at the window's middle: within the schedule's
+        ``tolerance`` [m/s2] of the exact value at every step, with no Python call per
+        step. Setting it sets :attr:`gravity` to its value now; while it is set, it
+        overwrites :attr:`gravity` at every window. Set None to keep gravity where it
+        is from then on. Not stored in checkpoints.
+        """
+        return self._schedule
+
+    @gravity_schedule.setter
+    def gravity_schedule(self, value):
+        self._schedule = as_schedule(value)
+        self._schedule_anchor = None  # (step, time, dt, window) of its first window
+        if value is not None:
+            self._gravity[:] = value.at(self.time)
+
+    def _gravity_window(self, nsteps):
+        """Set gravity for the coming steps from the schedule; returns how many of the
+        ``nsteps`` lie in the current window (all of them without a schedule)."""
+        sch = self._schedule
+        if sch is None or self.n_spheres == 0:
+            if sch is not None:
+                self._gravity[:] = sch.at(self.time)
+            return nsteps
+        dt = self.dt
+        a = self._schedule_anchor
+        if a is None or a[2] != dt:   # first use, or particles changed the step
+            a = self._schedule_anchor = (self.step_count, self.time, dt, sch.window(dt))
+        n0, t0, _, width = a
+        first = n0 + (self.step_count - n0) // width * width
+        self._gravity[:] = sch.at(t0 + (first - n0 + 0.5 * (width + 1)) * dt)
+        return min(nsteps, first + width - self.step_count)
 
     def _check_gravity(self):
         """ConfigError unless gravity (perhaps changed in place) is three finite numbers."""
@@ -358,7 +457,9 @@ class Simulation:
                        origin=np.ascontiguousarray(w.origin, dtype=float),
                        aabb=np.ascontiguousarray(w.aabb, dtype=float),
                        material=np.ascontiguousarray(w.material, dtype=np.int64),
-                       group=np.ascontiguousarray(w.group, dtype=np.int64))
+                       group=np.ascontiguousarray(w.group, dtype=np.int64),
+                       id=np.array(getattr(w, "row_id", np.arange(len(w.kind))),
+                                   dtype=np.int64))
         self._walls_moving = bool(w.moving)
         self._walls_version = getattr(w, "version", 0)
         self.wall_names = list(getattr(w, "names", []))
@@ -381,9 +482,9 @@ class Simulation:
     #: flung apart. Pairs of fixed particles are not checked.
     overlap_tolerance = 0.25
 
-    def add_particles(self, template, positions, orientations=None, scales=None,
+    def add_particles(self, template=None, positions=None, orientations=None, scales=None,
                       velocities=None, angular_velocities=None, material=0, fixed=False,
-                      seed=0):
+                      seed=0, radii=None, rotation=True):
         """Add particles made from one template; returns the new particle indices.
 
         Parameters
@@ -391,7 +492,8 @@ class Simulation:
         template : float or template
             A sphere radius [m], or a multi-sphere template with ``radii``, ``centers``
             (principal frame, centre of mass at the origin), ``volume`` and
-            ``inertia_per_density`` (see :mod:`demcal.particles.templates`).
+            ``inertia_per_density`` (see :mod:`demcal.particles.templates`). Leave it
+            out when giving ``radii``.
         positions : (n, 3) array
             Centres of mass [m].
         orientations : (n, 4) or (4,) quaternions (w, x, y, z), "random", or None
@@ -405,6 +507,18 @@ class Simulation:
             Fixed particles never move (obstacles).
         seed : int
             Seed for ``orientations="random"``.
+        radii : float or (n,) array, optional
+            Single spheres of these radii [m], one per particle (or one for all), in
+            place of ``template`` and ``scales``:
+            ``sim.add_particles(positions=xyz, radii=r)``.
+        rotation : bool or (n,) bools
+            False locks the particles' rotation: they translate under forces and
+            gravity but never turn (omega stays 0 whatever the torque). Their
+            principal moments of inertia are infinite (``state.inertias`` holds
+            ``inf``; the engine's 1/I is then 0, so the compiled loops run as for
+            any other particle); their mean moment, which the rolling models'
+            damping uses, stays the template's. ``angular_velocities`` must be 0
+            for them.
 
         All input is checked before anything is added: finite numbers of the right
         shapes; no particle outside ``domain`` or larger than a :class:`Box` wall it is
@@ -412,12 +526,28 @@ class Simulation:
         by more than :attr:`overlap_tolerance` of the smaller radius. A given ``dt`` is
         checked again against the new particles at the next step.
         """
+        if positions is None:
+            raise ConfigError("add_particles needs positions: an (n, 3) array of centres "
+                              "[m].")
         pos = _floats(positions, "positions", "m")
         if pos.ndim == 1:
             pos = pos.reshape(1, -1)
         if pos.ndim != 2 or pos.shape[1] != 3 or not np.all(np.isfinite(pos)):
             raise ConfigError("positions must be an (n, 3) array of finite numbers [m].")
         n = pos.shape[0]
+        by_radii = radii is not None
+        if by_radii:
+            if template is not None or scales is not None:
+                raise ConfigError("give radii= alone, or a template (with scales=), not "
+                                  "both: radii are single spheres of those radii.")
+            if self._unit_sphere is None:
+                self._unit_sphere = _SphereTemplate(1.0)
+            template, scales = self._unit_sphere, _floats(radii, "radii", "m")
+            if not (np.all(np.isfinite(scales)) and np.all(scales > 0)):
+                raise ConfigError("radii must be finite numbers > 0 [m].")
+        elif template is None:
+            raise ConfigError("add_particles needs a template, a sphere radius [m] or "
+                              "radii= (one per particle).")
         if isinstance(template, (int, float, np.floating, np.integer)) and not isinstance(
                 template, (bool, np.bool_)):
             if not (math.isfinite(template) and template > 0):
@@ -448,7 +578,8 @@ class Simulation:
             raise ConfigError("a one-sphere template must have its centre at the origin.")
         sc = _floats(1.0 if scales is None else scales, "scales", "-")
         if not (sc.ndim == 0 or sc.shape in ((1,), (n,))):
-            raise ConfigError(f"scales must be one number or one per particle (n = {n}), "
+            what = "radii" if by_radii else "scales"
+            raise ConfigError(f"{what} must be one number or one per particle (n = {n}), "
                               f"got shape {sc.shape}.")
         sc = np.broadcast_to(sc, (n,)).copy()
         if not (np.all(np.isfinite(sc)) and np.all(sc > 0)):
@@ -471,14 +602,11 @@ class Simulation:
                else _rows(velocities, n, 3, "velocities", "m/s"))
         omg = (np.zeros((n, 3)) if angular_velocities is None
                else _rows(angular_velocities, n, 3, "angular_velocities", "rad/s"))
-        fx = np.asarray(fixed)
-        if fx.ndim == 0 and isinstance(fx.item(), (bool, int)):
-            fx = np.full(n, bool(fx))
-        elif fx.shape == (n,) and fx.dtype == np.bool_:
-            fx = fx.copy()
-        else:
-            raise ConfigError(f"fixed must be True, False or one bool per particle "
-                              f"(n = {n}), got {fixed!r}.")
+        fx = _flags(fixed, n, "fixed")
+        locked = ~_flags(rotation, n, "rotation")
+        if np.any(omg[locked] != 0.0):
+            raise ConfigError("angular_velocities must be 0 for particles with "
+                              "rotation=False (their rotation is locked).")
         # sphere extents for the domain and box checks
         rmax_particle = (np.linalg.norm(centers, axis=1) + radii).max() * sc
         if self.domain is not None:
@@ -515,12 +643,14 @@ class Simulation:
             tid = len(self.templates) - 1
         mass = rho * tpl.volume * sc ** 3
         inertia = rho * ipd[None, :] * sc[:, None] ** 5
+        iso = _mean_inertia(inertia)
+        inertia[locked] = np.inf      # 1/I = 0: no torque turns them
         # angular momentum L = R I R^T w
         angmom = np.empty((n, 3))
         for a in range(n):
             q = quat[a]
             wb = _integ.quat_rotate_inv(q[0], q[1], q[2], q[3], *omg[a])
-            lb = np.array(wb) * inertia[a]
+            lb = np.array(wb) * inertia[a] if not locked[a] else np.zeros(3)
             angmom[a] = _integ.quat_rotate(q[0], q[1], q[2], q[3], *lb)
         b, s = self._b, self._s
         start_new = ns0 + k * np.arange(1, n + 1, dtype=np.int64)
@@ -533,7 +663,7 @@ class Simulation:
             torque=np.concatenate([b["torque"], np.zeros((n, 3))]),
             mass=np.concatenate([b["mass"], mass]),
             inertia=np.concatenate([b["inertia"], inertia]),
-            iso=np.concatenate([b["iso"], _mean_inertia(inertia)]),
+            iso=np.concatenate([b["iso"], iso]),
             mat=np.concatenate([b["mat"], np.full(n, mi, np.int64)]),
             template=np.concatenate([b["template"], np.full(n, tid, np.int64)]),
             scale=np.concatenate([b["scale"], sc]),
@@ -1113,17 +1243,56 @@ class Simulation:
             self._w[key][...] = getattr(w, key)
 
     def _sync_walls(self):
-        """Pick up a wall set changed since the last run (``WallSet.set_motion``): copy
-        its rows into the engine, rebuild the lists (a wall may have jumped) and
-        re-evaluate the forces."""
+        """Pick up a wall set changed since the last run (``WallSet.set_motion``,
+        ``WallSet.remove``): copy its rows into the engine, rebuild the lists (a wall
+        may have jumped) and re-evaluate the forces."""
         w = self.walls
         if w is None or getattr(w, "version", 0) == self._walls_version:
             return
-        self._walls_version = w.version
-        self._walls_moving = bool(w.moving)
-        self._place_walls()
+        ids = getattr(w, "row_id", None)
+        if ids is not None and not np.array_equal(ids, self._w["id"]):
+            self._renumber_wall_contacts(np.asarray(ids, dtype=np.int64))
+            self._wall_arrays()
+        else:
+            self._walls_version = w.version
+            self._walls_moving = bool(w.moving)
+            self._place_walls()
         self._needs_rebuild = True
         self._forces_valid = False
+
+    def _renumber_wall_contacts(self, ids):
+        """The wall rows are now those of ``ids`` (their ``row_id``s, in order): point
+        the wall contacts at their rows' new numbers, and mark the contacts with a row
+        that is gone (-1, inactive), so that the next rebuild drops their history."""
+        old = self._w["id"]
+        lookup = np.full(max(old.max(initial=-1), ids.max(initial=-1)) + 1, -1, np.int64)
+        lookup[ids] = np.arange(ids.size)
+        q = self._q
+        nq = int(q["start"][-1])
+        wid = q["wid"][:nq]
+        gone = wid < 0                # a row removed before, not rebuilt since
+        wid[...] = np.where(gone, -1, lookup[old[np.where(gone, 0, wid)]])
+        q["act"][:nq] &= wid >= 0
+
+    def remove_wall(self, name: str) -> None:
+        """Take the wall called ``name`` (all its rows) out of the simulation.
+
+        Allowed at any time, also from a reporter during a run: the particles stop
+        feeling it from the next step on, the contacts against it are dropped with
+        their history (the other walls' contacts keep theirs), and
+        :meth:`wall_forces` no longer lists it. The wall set shared with the
+        simulation loses the wall too (:meth:`~demcal.geometry.WallSet.remove`), so a
+        checkpoint saved afterwards restarts in a simulation built without it.
+
+        Raises
+        ------
+        ConfigError
+            No wall has that name (the message lists the walls there are).
+        """
+        if self.walls is None or not hasattr(self.walls, "remove"):
+            raise ConfigError(f"no wall named {name!r}: this simulation has no walls.")
+        self.walls.remove(name)
+        self._sync_walls()
 
     def _move_walls(self, dt):
         self._place_walls()
@@ -1141,6 +1310,14 @@ class Simulation:
         are counted again from the time left. A given ``dt`` never changes, so the run
         takes exactly ``round(duration / dt)`` steps (reporters' ``start`` get that
         count).
+
+        With a :attr:`gravity_schedule`, gravity is set at every window of its steps.
+
+        Returns
+        -------
+        RunSummary
+            Steps taken, simulated time [s], wall time [s], particles and
+            particle-steps per second.
         """
         if (duration is None) == (steps is None):
             raise ConfigError("give run() exactly one of duration [s] or steps.")
@@ -1168,11 +1345,14 @@ class Simulation:
             if hasattr(r, "start"):
                 r.start(self, steps)
         done = 0
+        particle_steps = 0
+        t_start, clock = self.time, _time.perf_counter()
         try:
             while done < steps:
                 want = [max(1, int(r.next_report(self))) for r in reporters]
-                nxt = min([steps - done] + want)
+                nxt = self._gravity_window(min([steps - done] + want))
                 self._check_gravity()
+                particle_steps += self.n_particles * nxt
                 self._advance(nxt)
                 done += nxt
                 for r, k in zip(reporters, want):
@@ -1189,7 +1369,10 @@ class Simulation:
             for r in reporters:
                 if hasattr(r, "finish"):
                     r.finish(self)
-        return self
+        return RunSummary(steps=done, simulated_time=self.time - t_start,
+                          wall_time=_time.perf_counter() - clock,
+                          particles=self.n_particles, particle_steps=particle_steps,
+                          simulation=self)
 
     # ------------------------------------------------------------------ observables --
     @property

@@ -1,7 +1,8 @@
 """Distance kernels from a point to a wall surface.
 
 Every wall row is an integer ``kind`` plus ``PARAM_WIDTH`` float64 parameters in the
-WORLD frame at the current time (see ``.coord/WALLS.md``). One kernel per kind and a
+WORLD frame at the current time (the layouts below; :mod:`demcal.geometry.wallset`
+packs the rows of many walls into arrays). One kernel per kind and a
 dispatcher :func:`wall_distance`; each is a pure scalar function (no allocation, no
 globals but module constants) so the same source compiles with ``numba.njit`` for the
 CPU and with ``numba.cuda.jit(device=True)`` for the GPU.

@@ -160,9 +160,17 @@ class Disk(Wall):
 
 
 class Cylinder(Wall):
-    """A finite cylindrical shell: base circle centre ``base``, ``axis`` towards the top,
-    ``radius``, ``length``; two-sided, open ends unless ``bottom``/``top`` caps are asked
-    for (flat disks, same group)."""
+    """A cylindrical shell: base circle centre ``base`` [m], ``axis`` towards the top,
+    ``radius`` [m], ``length`` [m]; two-sided, open ends unless ``bottom``/``top`` caps
+    are asked for (flat disks, same group).
+
+    ``length=math.inf`` gives a cylinder without end: from the base circle on along
+    ``axis`` (the distance kernel clamps the axial coordinate to ``[0, length]``, which
+    an infinite length leaves unclamped above the base). Put the base below every
+    particle (e.g. at or under the floor) for a cylinder that is infinite both ways as
+    far as the particles can tell. Such a cylinder may have a ``bottom`` cap, not a
+    ``top`` one; it is drawn (:meth:`WallSet.triangulate`) as long as an infinite plane.
+    """
 
     kind_name = "cylinder"
 
@@ -180,17 +188,23 @@ class Cylinder(Wall):
         self.base = _vec3(base, "cylinder base")
         self.axis = _unit(axis, "cylinder axis")
         self.radius = _positive(radius, "cylinder radius")
-        self.length = _positive(length, "cylinder length")
+        self.length = as_float(length)
+        if not self.length > 0.0:  # NaN (not a number) too
+            raise ConfigError(f"cylinder length must be a number > 0 [m] or math.inf (no "
+                              f"end), got {length!r}.")
+        if top and math.isinf(self.length):
+            raise ConfigError("a cylinder of infinite length has no top to close: drop "
+                              "top=True or give a finite length.")
         self.bottom = bool(bottom)
         self.top = bool(top)
 
     def rows(self):
         kinds = [K.CYLINDER]
         params = [_row(self.base, self.axis, self.radius, self.length)]
-        for on, centre in ((self.bottom, self.base), (self.top, self.base + self.length * self.axis)):
-            if on:
+        for on, height in ((self.bottom, 0.0), (self.top, self.length)):
+            if on:  # (an endless cylinder has no top)
                 kinds.append(K.DISK)
-                params.append(_row(centre, self.axis, self.radius))
+                params.append(_row(self.base + height * self.axis, self.axis, self.radius))
         return np.array(kinds, np.int32), np.array(params)
 
 
@@ -547,7 +561,10 @@ def aabb_rows(kinds: np.ndarray, params: np.ndarray) -> np.ndarray:
     for kind, r_a, r_b, length_slot in ((K.CYLINDER, 6, 6, 7), (K.CONE, 6, 7, 8)):
         m = kinds == kind
         if np.any(m):
-            c2 = c[m] + params[m, length_slot][:, None] * a[m]
+            # the far end; an infinite cylinder reaches infinity where its axis has a
+            # component and stays within its circle where it has none (not 0 * inf)
+            far = params[m, length_slot][:, None] * np.where(a[m] != 0.0, a[m], 1.0)
+            c2 = c[m] + np.where(a[m] != 0.0, far, 0.0)
             e1 = _circle_extent(a[m], params[m, r_a])
             e2 = _circle_extent(a[m], params[m, r_b])
             box[m, :3] = np.minimum(c[m] - e1, c2 - e2)

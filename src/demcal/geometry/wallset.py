@@ -1,6 +1,7 @@
-"""Packing walls into the flat arrays the engine's kernels read (``.coord/WALLS.md``).
+"""Packing walls into the flat arrays the engine's kernels read.
 
-A :class:`WallSet` holds, for ``nw`` kernel rows:
+A :class:`WallSet` holds, for ``nw`` kernel rows (the parameter layout of each kind is
+in :mod:`demcal.geometry.kernels`):
 
 ========  ================  ===================================================
 kind      int32[nw]         PLANE, DISK, CYLINDER, CONE, RECT or TRIANGLE
@@ -11,6 +12,8 @@ origin    float64[nw, 3]    reference point (rotation centre) [m]
 aabb      float64[nw, 6]    xmin, ymin, zmin, xmax, ymax, zmax (inf for planes)
 material  int32[nw]         material index
 group     int32[nw]         index into :attr:`WallSet.names` (one per user wall)
+row_id    int64[nw]         the row's number when the set was built; it stays with
+                            the row when :meth:`WallSet.remove` drops other walls
 ========  ================  ===================================================
 
 The velocity of wall row ``w`` at a contact point ``xc`` is
@@ -84,14 +87,19 @@ class WallSet:
         self.omega = np.zeros((nw, 3))
         self.origin = self._ref_origin.copy()
         self.aabb = aabb_rows(self.kind, self.params) if nw else np.zeros((0, 6))
-        #: row slice of each group
-        bounds = np.searchsorted(self.group, np.arange(len(walls) + 1))
-        self._slices = [slice(int(bounds[g]), int(bounds[g + 1])) for g in range(len(walls))]
-        self.moving: bool = any(w.motion.moving for w in walls)
-        #: bumped by :meth:`set_motion`, so that a simulation notices the change
+        self.row_id = np.arange(nw, dtype=np.int64)
+        self._index()
+        #: bumped by :meth:`set_motion` and :meth:`remove`, so that a simulation notices
         self.version: int = 0
         self.time = None
         self.update(t, force=True)
+
+    def _index(self) -> None:
+        """The row slice of each group, and whether any wall moves."""
+        bounds = np.searchsorted(self.group, np.arange(len(self.walls) + 1))
+        self._slices = [slice(int(bounds[g]), int(bounds[g + 1]))
+                        for g in range(len(self.walls))]
+        self.moving: bool = any(w.motion.moving for w in self.walls)
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -158,6 +166,28 @@ class WallSet:
         self.walls[g].motion = as_motion(motion)
         self.moving = self.moving or self.walls[g].motion.moving
         self._place(g, 0.0 if self.time is None else self.time)
+        self.version += 1
+
+    def remove(self, name: str) -> None:
+        """Take the wall called ``name`` out of the set, with all its rows.
+
+        The other walls keep their names, rows (in order, with their ``row_id``) and
+        motions. Remove a wall from a running simulation with
+        :meth:`demcal.dem.Simulation.remove_wall`, which also drops the contacts
+        against it; a simulation using this set picks up a removal made here when it
+        next runs.
+        """
+        rows = self.rows_of(name)  # the error that lists the walls, if there is none so called
+        g = self.names.index(name)
+        keep = np.ones(len(self.kind), bool)
+        keep[rows] = False
+        del self.walls[g]
+        del self.names[g]
+        for key in ("kind", "_ref_params", "group", "_ref_origin", "material", "params",
+                    "velocity", "omega", "origin", "aabb", "row_id"):
+            setattr(self, key, np.ascontiguousarray(getattr(self, key)[keep]))
+        self.group[self.group > g] -= 1
+        self._index()
         self.version += 1
 
     def _place(self, g: int, t: float) -> None:
@@ -276,7 +306,8 @@ def triangulate_row(kind: int, p: np.ndarray, resolution: int = 32, plane_size: 
         j = np.arange(n)
         return pts, np.stack([np.zeros(n, int), 1 + j, 1 + (j + 1) % n], axis=1)
     if kind == K.CYLINDER:
-        return _surface_of_revolution(p[0:3], p[3:6], [p[6], p[6]], [0.0, p[7]], n)
+        length = p[7] if math.isfinite(p[7]) else plane_size  # an endless one, cut
+        return _surface_of_revolution(p[0:3], p[3:6], [p[6], p[6]], [0.0, length], n)
     if kind == K.CONE:
         return _surface_of_revolution(p[0:3], p[3:6], [p[6], p[7]], [0.0, p[8]], n)
     if kind == K.RECT:

@@ -85,6 +85,28 @@ class Material:
         """Young's modulus E = 2 G (1 + nu) [Pa]."""
         return 2.0 * self.shear_modulus * (1.0 + self.poisson_ratio)
 
+    @classmethod
+    def from_youngs_modulus(cls, youngs_modulus, poisson_ratio, density,
+                            yield_strength=SOIL_YIELD_STRENGTH,
+                            name: str = "material") -> "Material":
+        """A material given by Young's modulus E [Pa] instead of the shear modulus.
+
+        The engine keeps G (EDEM's material table does), here G = E / (2 (1 + nu)),
+        the isotropic elastic relation (e.g. Timoshenko & Goodier, Theory of
+        Elasticity, 3rd ed., 1970, section 4). ``poisson_ratio`` in [0, 0.5),
+        ``density`` [kg/m3], ``yield_strength`` [Pa] and ``name`` as for
+        :class:`Material`.
+
+        >>> Material.from_youngs_modulus(2.6e6, 0.3, 1500.0).shear_modulus
+        1000000.0
+        """
+        e = _finite(youngs_modulus, f"{name}.youngs_modulus")
+        if e <= 0:
+            raise ConfigError(f"{name}.youngs_modulus must be > 0 Pa, got {e}.")
+        nu = _finite(poisson_ratio, f"{name}.poisson_ratio")
+        return cls(density=density, shear_modulus=e / (2.0 * (1.0 + nu)),
+                   poisson_ratio=nu, yield_strength=yield_strength, name=name)
+
 
 @dataclass(frozen=True)
 class Interaction:
@@ -107,6 +129,17 @@ class Interaction:
     rolling_damping : float
         Viscous damping ratio eta_r of the elastic-plastic spring-dashpot rolling model
         (Ai et al. 2011, their Eq. 14), in [0, 1]; 0.3 as in their tests.
+
+    Notes
+    -----
+    ``Interaction()`` with no arguments is the paper's soil-soil pair (Xie et al. 2020,
+    Table 2) except for the damping factor: restitution 0.6, static friction 0.4 and
+    rolling friction 0.2 are the centres of the Table 2 ranges, stiffness factor 0.95
+    the paper's default xi, but ``damping_factor`` defaults to 0 (no extra damping: the
+    restitution is then exactly ``e``), where :func:`soil_interaction` takes the
+    Table 2 centre 0.1. ``rolling_damping`` 0.3 is Ai et al.'s (2011), used only by
+    the ``type_c`` rolling model. Name every value for another material pair; the
+    table of defaults is in docs/dem.md.
     """
 
     restitution: float = 0.6
