@@ -203,3 +203,36 @@ def test_a_reference_table_is_read_and_re_analysed(built, tmp_path):
                                          r"column 'repose_angle_deg'"):
         write_report(with_table, tmp_path / "again", [cal], figure_files=False)
     assert not (tmp_path / "again").exists()
+
+
+def test_each_condition_has_ramps_and_an_overlay_of_the_lab_window(built):
+    """Issue 19: Design-Expert's desirability ramps and overlay plot per condition. The
+    overlay spans the two factors that move the angle most (B and C: 3 and 6 deg per
+    coded unit, A 0.5, D none), and its yellow region is where the calibration's model
+    predicts the lab mean ± sd; the unreachable target has none, and says so."""
+    from demcal.report.diagnostics import overlay_grid
+    from demcal.report.html import _slug
+
+    campaign, cal, _, page = built
+    captions = dict(re.findall(r'<figure><img alt="([^"]+)"[^>]*><figcaption>([^<]*)</figcaption>', page))
+    for result in cal.conditions:
+        name = f"solve_{result.condition.name}"
+        assert "desirability ramps of solution 1" in captions[_slug(f"{name}_ramps")]
+        overlay = captions[_slug(f"{name}_overlay")]
+        assert "overlay plot over B and C" in overlay
+        target = result.condition.targets[0]
+        window = f"within {target.mean - target.sd:.4g} to {target.mean + target.sd:.4g} (lab mean ± sd)"
+        assert window in html.unescape(overlay)
+        assert ("no setting in this plane meets every window" in overlay) == (result.condition.name == "too low")
+
+    result = cal.conditions[0]
+    target = result.condition.targets[0]
+    window = {RESPONSE: (target.mean - target.sd, target.mean + target.sd, "lab mean ± sd")}
+    best = result.optimization.solutions.iloc[0]
+    point = np.array([best[f"coded:{f.name}"] for f in result.optimization.factors])
+    grid = overlay_grid(cal.models, window, point, 1, 2, n=21)
+    pts = np.tile(point, (grid["gi"].size, 1))
+    pts[:, 1], pts[:, 2] = grid["gi"].ravel(), grid["gj"].ravel()
+    y = cal.models[RESPONSE].predict(pts).reshape(grid["gi"].shape)
+    np.testing.assert_array_equal(grid["feasible"], (y >= window[RESPONSE][0]) & (y <= window[RESPONSE][1]))
+    assert 0 < grid["feasible"].mean() < 1

@@ -28,6 +28,7 @@ import pandas as pd
 
 from demcal.doe.factors import Factor
 from demcal.optimize import Goal, Optimization, optimize
+from demcal.report.diagnostics import add_interaction_sections, add_residual_sections
 from demcal.report.figures import (
     perturbation_figure, predicted_vs_actual_figure, solution_set_figure, surface_figure,
 )
@@ -201,7 +202,7 @@ def active_factors(model: ResponseSurface) -> list[int]:
 def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, label: str = "",
                        printed_anova: dict | None = None, printed_equation: dict | None = None,
                        printed_fit: dict | None = None, surfaces=((0, 1),), reduce_alpha: float = 0.05,
-                       level: int = 3, used_by: str | None = None, reduction=None) -> dict:
+                       level: int = 3, used_by: str | None = None, reduction=None, run_order=None) -> dict:
     """ANOVA, fit statistics, coefficients, equations, fit summary, reduced model and
     figures of one response surface, appended to ``report``.
 
@@ -228,6 +229,9 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
         model, and say so.
     reduction : demcal.rsm.Reduction, optional
         The reduction to show (default: backward elimination at ``reduce_alpha``).
+    run_order : sequence of int, optional
+        Run number of each of the model's runs in the design's order, for the residuals
+        and Cook's distance against run (default 1..n, the order of the fitted rows).
 
     Returns
     -------
@@ -312,6 +316,7 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
                  caption=f"Residuals, leverage, studentized residuals and Cook's distance of the {of}")
     report.figure(predicted_vs_actual_figure(used, label=used_label), f"{name}_predicted_vs_actual",
                   caption=f"Predicted vs actual {model.response}, {of}")
+    add_residual_sections(report, used, name, of, used_label, run_order)
     active = set(active_factors(used))
     for i, j in surfaces:
         fi, fj = used.factors[i], used.factors[j]
@@ -323,6 +328,7 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
                               "other factors at their centre levels")
     report.figure(perturbation_figure(used, label=used_label), f"{name}_perturbation",
                   caption=f"Perturbation plot about the design centre, {of}")
+    add_interaction_sections(report, used, name, of, used_label)
     return out
 
 

@@ -5,6 +5,9 @@ factors and returns a :class:`ResponseSurface` holding the ANOVA (partial sums o
 squares, lack of fit vs pure error), fit statistics, coefficient table and diagnostics.
 :func:`fit_summary` compares the orders; :func:`backward_elimination` reduces a model
 while keeping it hierarchical; :func:`read_runs` loads and codes a run table.
+:mod:`demcal.rsm.diagnostics` holds the residual diagnostics (leverage, studentized
+residuals, Cook's distance and their limits), the Box-Cox analysis and the choice of
+interaction plots.
 """
 
 from demcal._lazy import lazy_exports

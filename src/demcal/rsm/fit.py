@@ -26,6 +26,7 @@ from scipy import stats
 
 from demcal.doe.factors import Factor
 from demcal.errors import DataError
+from demcal.rsm.diagnostics import influence_table
 from demcal.rsm.equations import actual_coefficients, format_equation
 from demcal.rsm.terms import (
     Polynomial, Term, degree, display_name, model_matrix, model_terms, normalise_order, term_name,
@@ -126,7 +127,8 @@ class ResponseSurface:
         index term; columns ``estimate, df, std_error, ci_low, ci_high, vif``.
     ``diagnostics``
         one row per run: ``actual, predicted, residual, leverage, studentized,
-        externally_studentized, cooks_distance, dffits``.
+        externally_studentized, cooks_distance, dffits``
+        (:func:`demcal.rsm.diagnostics.influence_table`).
     """
 
     response: str
@@ -438,17 +440,6 @@ def fit_response_surface(
     )
     coef_table.index.name = "term"
 
-    # diagnostics
-    with np.errstate(divide="ignore", invalid="ignore"):
-        stud = resid / (sd * np.sqrt(1.0 - leverage))
-        ext = stud * np.sqrt((df_res - 1) / np.maximum(df_res - stud**2, 1e-300)) if df_res > 1 else np.full(n, np.nan)
-        cooks = stud**2 * leverage / (p * (1.0 - leverage))
-        dffits = ext * np.sqrt(leverage / (1.0 - leverage))
-    diagnostics = pd.DataFrame(
-        {"actual": y, "predicted": fitted, "residual": resid, "leverage": leverage,
-         "studentized": stud, "externally_studentized": ext, "cooks_distance": cooks,
-         "dffits": dffits},
-        index=pd.RangeIndex(1, n + 1, name="run"),
-    )
+    diagnostics = influence_table(y, fitted, leverage, p)
     return ResponseSurface(response, factors, terms, x, y, coef, xtx_inv, anova, fit,
                            coef_table, diagnostics, aliases, notes, order)
