@@ -42,3 +42,22 @@ def test_a_bed_that_shears_above_its_base():
     out = base_kinematics(_state(0.01, 0.0, z_top=0.02))
     assert out["base_mass_fraction"] == pytest.approx(2 / 3)
     assert out["base_velocity_ratio"] == pytest.approx(0.01 / (0.04 / 3))
+
+
+def test_rigid_container_holds_within_its_rim_friction_and_yields_beyond():
+    import math
+
+    from demcal.bench.incline import RigidContainer
+
+    w = 10.0  # the material's weight [N]
+    rim = RigidContainer(weight_c=5.0, mu=0.4, v_ref=0.2, weight=w)
+    th = math.radians(20.0)
+    hold = 0.4 * 5.0 * math.cos(th)  # 1.879 N of static rim friction
+    own = 5.0 * math.sin(th)  # 1.710 N of its own weight along the slope
+    assert rim.velocity(0.0, th) == 0.0  # its own weight alone is held
+    assert rim.velocity(hold - own - 1e-6, th) == 0.0
+    assert rim.velocity(hold - own + 1.0, th) == pytest.approx(0.2 * 1.0 / w)  # pushed 1 N past the limit
+    assert rim.velocity(-(hold + own) - 2.0, th) == pytest.approx(-0.2 * 2.0 / w)  # pulled uphill
+    massless = RigidContainer(0.0, 0.0, 0.2, w)
+    assert massless.velocity(0.5, th) == pytest.approx(0.01)  # any push moves it
+    assert massless.velocity(1e6, th) == 0.5  # capped

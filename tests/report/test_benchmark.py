@@ -49,3 +49,25 @@ def test_no_reference_or_too_few_points_is_no_comparison(tmp_path):
     campaign = _campaign(tmp_path, [(-1, -1, 15.0), (1, 1, 45.0)])
     assert compare(campaign, "y", [_record(0.5, 0.3, 14.0), _record(0.7, 0.5, 44.0)]) == []
     assert compare(campaign, "missing", [_record(0.5, 0.3, 14.0)]) == []
+
+
+def test_a_stored_bias_adds_a_shifted_row(tmp_path, monkeypatch):
+    from demcal.bench import profiles
+
+    rows = [(-1, -1, 15.0), (1, -1, 35.0), (-1, 1, 25.0), (1, 1, 45.0)]
+    campaign = _campaign(tmp_path, rows)
+    campaign.settings = {"p.x": 1}  # not a material setting: no stored bias applies
+    records = [_record(0.5, 0.3, 14.0, settings={"p.x": 1}), _record(0.7, 0.3, 34.0, settings={"p.x": 1}),
+               _record(0.5, 0.5, 24.0, settings={"p.x": 1}), _record(0.7, 0.5, 44.0, settings={"p.x": 1})]
+    bias = profiles.ProfileBias("t", "y", "quick", "paper", bias=-3.0, se=0.4, sd_points=1.0, points=({}, {}))
+    monkeypatch.setattr(profiles, "stored", lambda test, response, cheap, production:
+                        bias if (test, response, cheap, production) == ("t", "y", "quick", "paper") else None)
+    assert [c.profile for c in compare(campaign, "y", records)] == ["quick"]
+    campaign.settings = {"particle.x": 1}  # a material value: the stored bias applies
+    records = [_record(r.parameters["p.a"], r.parameters["p.b"], r.responses["y"], settings={"particle.x": 1})
+               for r in records]
+    quick, shifted = compare(campaign, "y", records)
+    assert shifted.profile == "quick + stored bias to paper (-3.00°)"
+    assert quick.offset == pytest.approx(-1.0) and shifted.offset == pytest.approx(-4.0)
+    assert shifted.slope == pytest.approx(quick.slope)
+    assert shifted.points["sd"].iloc[0] == pytest.approx(0.4)  # no seed sd: the bias's se alone

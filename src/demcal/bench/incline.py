@@ -35,7 +35,10 @@ The simulation
   version's 1 m/s made the container oscillate against the bed (5 ms samples of the mean
   slope velocity jumping between 1 and 20 mm/s; a 1,500-particle bed "slid" at once),
   0.1 and 0.02 m/s both gave smooth signals, 0.02 about 1 deg later onsets. With
-  ``"remove"`` the container is taken away once the bed has settled.
+  ``"remove"`` the container is taken away once the bed has settled. With ``"rigid"``
+  it moves only when pushed (:class:`RigidContainer`, updated every 0.5 ms): a container
+  of ``incline.container_mass`` times the material's mass with rim friction
+  ``incline.container_friction`` on the film, massless and frictionless by default.
 * **Onset of sliding.** Every 5 ms the mass-weighted mean velocity of the material along
   the slope ``v`` is recorded. Sliding is detected when ``v`` exceeds
   ``incline.slide_speed`` (default 0.02 m/s). A block starting to slide on a plane tilted
@@ -48,6 +51,12 @@ The simulation
   as ``sliding_angle_detected_deg``). If the material is already moving when the tilt
   begins (a bed whose own angle of repose is below the start angle collapses rather than
   slides), ``slid_at_start`` is 1 and the angle is only an upper bound.
+* **Forces at the onset** (at the 5 ms sample nearest it): ``film_friction_ratio``, the
+  material's along-slope force on the film over its normal force (the base friction
+  mobilised, at most ``film.static_friction`` when the whole base slides), and
+  ``container_push_ratio``, the material's along-slope force on the container over its
+  weight. With ``base_*`` below they tell a base that slides from a bed that fails
+  inside (docs/validation.md).
 * **Lab link.** ``equivalent_height_mm = L sin(theta)`` with ``L = incline.arm_length``
   (300 mm): the ruler reading the lab would have taken.
 
@@ -72,6 +81,8 @@ from demcal.errors import ConfigError, SimulationError
 
 #: Controller and sampling interval [s].
 CHECK = 0.005
+#: Update interval of the rigid container [s].
+RIGID_CHECK = 0.0005
 #: Onset fit: the final rise starts where the mean slope velocity, averaged over
 #: ONSET_SMOOTH samples (25 ms), last rose to ONSET_LOW x the detection speed.
 ONSET_LOW = 0.25
@@ -99,8 +110,9 @@ class Incline(C.BenchExperiment):
                     "loose particles in a container, or one rigid block (a check)",
                     choices=("particles", "block")),
             Setting("incline.container", "follow", "-",
-                    "container during the tilt: follows the material, or removed",
-                    choices=("follow", "remove")),
+                    "container during the tilt: follows the material's mean velocity, moves only "
+                    "when pushed (rigid), or removed",
+                    choices=("follow", "rigid", "remove")),
             Setting("incline.tilt_rate", C.per_profile(profile, 10.0, 5.0, 1.0), "deg/s",
                     "tilting rate of the plate", 0.01, 90.0),
             Setting("incline.start_angle", 5.0, "deg",
@@ -110,6 +122,10 @@ class Incline(C.BenchExperiment):
             Setting("incline.container_yield", 0.05, "m/s",
                     "speed at which the following container gives way per unit of the "
                     "along-slope push on it over the material's weight", 0.0, 1.0),
+            Setting("incline.container_mass", 0.0, "-",
+                    "rigid container: its own mass over the material's", 0.0, 100.0),
+            Setting("incline.container_friction", 0.0, "-",
+                    "rigid container: static friction of its rim on the film", 0.0, 2.0),
             Setting("incline.slide_speed", 0.02, "m/s",
                     "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
             Setting("incline.visible_mm", 2.0, "mm",
@@ -206,9 +222,14 @@ class Incline(C.BenchExperiment):
         mass = sim.state.masses.copy()
         weight = float(mass.sum()) * C.G
         follow = container is not None and s["incline.container"] == "follow"
+        rigid = container is not None and s["incline.container"] == "rigid"
         v_ref = float(s["incline.container_yield"])
         steps = max(1, int(round(CHECK / sim.dt)))
+        sub = max(1, int(round(RIGID_CHECK / sim.dt))) if rigid else steps
+        rim = RigidContainer(float(s["incline.container_mass"]) * weight,
+                             float(s["incline.container_friction"]), v_ref, weight)
         times, angles, speeds = [], [], []
+        film_ratio, push_ratio = [], []  # mobilised film friction; container push / weight
         v_detect = float(s["incline.slide_speed"])
         x0 = _mean_x(sim)
         last = [0.0]
@@ -221,7 +242,15 @@ class Incline(C.BenchExperiment):
         while True:
             th = tilt_at(sim.time + 0.5 * steps * sim.dt)  # gravity of the coming interval
             sim.gravity[:] = (C.G * math.sin(th), 0.0, -C.G * math.cos(th))
-            sim.run(steps=steps)
+            if rigid:
+                for k in range(0, steps, sub):
+                    n_k = min(sub, steps - k)
+                    sim.run(steps=n_k)
+                    vc = rim.velocity(float(sim.wall_forces()["container"][0][0]), th)
+                    xc = motion.offset[0] + motion.velocity[0] * n_k * sim.dt
+                    motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
+            else:
+                sim.run(steps=steps)
             each()
             st = sim.state
             m = st.masses
@@ -229,6 +258,11 @@ class Incline(C.BenchExperiment):
             times.append(sim.time)
             angles.append(math.degrees(tilt_at(sim.time)))
             speeds.append(v)
+            if not block:
+                forces = sim.wall_forces()
+                fz = -float(forces["film"][0][2])
+                film_ratio.append(float(forces["film"][0][0]) / fz if fz > 0 else float("nan"))
+                push_ratio.append(float(forces["container"][0][0]) / weight)
             if moved_at is None and _mean_x(sim) - x0 >= visible:
                 moved_at = angles[-1]
             if follow:
@@ -249,6 +283,9 @@ class Incline(C.BenchExperiment):
         vtkw(sim, force=True)
         base = base_kinematics(sim.state) if not block else {}
         theta_c, theta_d = onset_angle(np.array(times), np.array(angles), np.array(speeds), v_detect)
+        if not block:
+            at = int(np.argmin(np.abs(np.array(angles) - theta_c)))
+            base.update(film_friction_ratio=film_ratio[at], container_push_ratio=push_ratio[at])
         L = float(s["incline.arm_length"])
         progress(f"sliding at {theta_c:.2f} deg (detected at {theta_d:.2f} deg)")
         responses = {
@@ -272,6 +309,31 @@ class Incline(C.BenchExperiment):
             artifacts["incline_png"] = _plot(out_dir, times, angles, speeds, theta_c, v_detect)
         return dict(responses=responses, spread=spread, particles=n, steps=sim.step_count,
                     simulated_s=sim.time, artifacts=artifacts)
+
+
+class RigidContainer:
+    """The along-slope motion of a rigid bottomless container moved only by the forces on it.
+
+    The container (``incline.container = "rigid"``) is a rigid ring of weight ``weight_c``
+    [N] resting on the film with rim friction ``mu``; the particles push it with ``fx``
+    [N] along the slope (their contacts with its frictionless wall). It stays put while
+    the push plus its own weight's slope component is within the rim's static friction
+    ``mu weight_c cos(theta)``, and otherwise gives way at ``v_ref`` times the excess
+    over ``weight`` (the material's weight) [m/s]: the overdamped limit of a free body,
+    which needs no mass of its own (an explicit free body of the container's mass would be
+    stable only with a step below ``2 sqrt(m / k_bed)``, far below the update interval).
+    With ``weight_c = 0`` it is a massless container that only keeps the material
+    together: the downhill wall cannot hold the material back unless the uphill wall
+    pushes it equally, so the bed slides only when its base does.
+    """
+
+    def __init__(self, weight_c: float, mu: float, v_ref: float, weight: float):
+        self.weight_c, self.mu, self.v_ref, self.weight = weight_c, mu, v_ref, weight
+
+    def velocity(self, fx: float, theta: float) -> float:
+        drive = fx + self.weight_c * math.sin(theta)
+        excess = max(abs(drive) - self.mu * self.weight_c * math.cos(theta), 0.0)
+        return float(np.clip(math.copysign(excess, drive) * self.v_ref / self.weight, -0.5, 0.5))
 
 
 def base_kinematics(st, touch: float = 0.05) -> dict[str, float]:

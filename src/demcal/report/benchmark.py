@@ -9,6 +9,12 @@ correlation and the slope of demcal on published (ordinary least squares). A slo
 with an offset is a level shift; a slope far from 1 means the factor effects differ.
 Error bars are the seed-to-seed sd: the point's own where it has replicates, else the sd
 pooled over every point that has.
+
+Where a bias from a cheap profile to the paper profile was measured
+(:mod:`demcal.bench.profiles`) and applies to the campaign's fixed settings, the cheap
+profile's comparison is repeated with that bias added ("quick + stored bias"): what the
+cheap runs say the paper profile would give, with the bias's standard error added to the
+error bars. It is a separate row, never a replacement of the runs' own numbers.
 """
 
 from __future__ import annotations
@@ -85,13 +91,33 @@ def compare(campaign: Campaign, response: str, records) -> list[Comparison]:
             continue
         points = pd.DataFrame(rows)
         pooled, _ = pooled_sd(groups.values())
-        diff = points["demcal"] - points["published"]
-        x, y = points["published"].to_numpy(), points["demcal"].to_numpy()
-        slope = float(np.polyfit(x, y, 1)[0]) if np.ptp(x) > 0 else np.nan
-        corr = float(np.corrcoef(x, y)[0, 1]) if np.ptp(x) > 0 and np.ptp(y) > 0 else np.nan
-        out.append(Comparison(profile, points, float(diff.mean()), float(np.sqrt((diff ** 2).mean())), corr,
-                              slope, pooled))
-    return out
+        out.append(_comparison(profile, points, pooled))
+    return out + [b for b in (_with_stored_bias(campaign, response, c) for c in out) if b is not None]
+
+
+def _comparison(profile: str, points: pd.DataFrame, pooled: float) -> Comparison:
+    diff = points["demcal"] - points["published"]
+    x, y = points["published"].to_numpy(), points["demcal"].to_numpy()
+    slope = float(np.polyfit(x, y, 1)[0]) if np.ptp(x) > 0 else np.nan
+    corr = float(np.corrcoef(x, y)[0, 1]) if np.ptp(x) > 0 and np.ptp(y) > 0 else np.nan
+    return Comparison(profile, points, float(diff.mean()), float(np.sqrt((diff ** 2).mean())), corr, slope, pooled)
+
+
+def _with_stored_bias(campaign: Campaign, response: str, c: Comparison) -> Comparison | None:
+    """``c`` shifted by the stored bias from its profile to the paper profile, if one applies."""
+    from demcal.bench import profiles
+
+    if c.profile == "paper":
+        return None
+    bias = profiles.stored(campaign.test, response, c.profile, "paper")
+    if bias is None or profiles.applies(campaign.settings):
+        return None
+    points = c.points.copy()
+    points["demcal"] = points["demcal"] + bias.bias
+    seed_sd = points["sd"].fillna(c.pooled_sd).fillna(0.0)  # no replicates anywhere: the bias's se alone
+    points["sd"] = np.sqrt(seed_sd ** 2 + bias.se ** 2)
+    return _comparison(f"{c.profile} + stored bias to paper ({bias.bias:+.2f}°)", points,
+                       float(np.hypot(c.pooled_sd, bias.se)))
 
 
 def figure(comparisons: list[Comparison], response: str, label: str):

@@ -1,0 +1,42 @@
+"""The stored bias between profiles as the loop's discrepancy before production runs."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from demcal.bench import profiles
+from demcal.campaign.config import load_campaign
+from demcal.campaign.loop import Discrepancy, stored_priors
+
+SLIDING = Path(__file__).resolve().parents[2] / "examples" / "residual-film-soil" / "sliding.toml"
+
+
+def _bias(**kw):
+    base = dict(test="incline", response="sliding_angle_deg", cheap="quick", production="paper",
+                bias=-2.0, se=0.3, sd_points=0.4, points=({}, {}), measured="today")
+    return profiles.ProfileBias(**{**base, **kw})
+
+
+def test_a_stored_bias_is_the_discrepancy_until_production_runs_exist():
+    d = Discrepancy([], _bias())
+    assert d.kind == "stored"
+    mean, sd = d(np.zeros(3))
+    assert mean == -2.0 and sd == pytest.approx(0.5)  # hypot(0.3, 0.4)
+    assert "stored quick → paper bias -2.00" in d.describe()
+    own = Discrepancy([(np.zeros(3), -5.0), (np.ones(3), -4.0)], _bias())
+    assert own.kind == "additive" and own.bias == -4.5  # the campaign's own runs replace it
+    assert Discrepancy([]).describe().startswith("no production run yet (discrepancy 0)")
+
+
+def test_stored_priors_apply_to_the_material_settings_only():
+    campaign = load_campaign(SLIDING)
+    stored = profiles.stored("incline", "sliding_angle_deg", "quick", "paper")
+    assert stored is not None, "the incline's quick -> paper bias is stored"
+    assert stored_priors(campaign, "quick", "paper") == {"sliding_angle_deg": stored}
+    assert stored_priors(campaign, "quick", "quick") == {}
+    assert stored_priors(campaign, "tiny", "paper") == {}  # none measured
+    import dataclasses
+
+    counted = dataclasses.replace(campaign, settings={**campaign.settings, "particles.count": 500})
+    assert stored_priors(counted, "quick", "paper") == {}
