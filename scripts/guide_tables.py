@@ -45,6 +45,11 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                              "`<name>-runs`. Relative to the campaign file's folder and inside it.",
     ("campaign", "lab"): "TOML file of lab records (one table per sample, see *The lab file*); "
                          "relative to the campaign file's folder and inside it.",
+    ("campaign", "from_campaign"): "another campaign file (e.g. `\"repose.toml\"`) whose calibrated "
+                                   "values each condition's runs keep fixed: the values `demcal "
+                                   "calibrate` found there for the condition of the same name. For "
+                                   "every condition that names none of its own; see *Chained "
+                                   "campaigns*.",
     ("experiment", "test"): "**required**. The virtual test: `demcal bench --list` names them "
                             "(table *The virtual tests* below).",
     ("experiment", "profile"): "the test's profile for the design runs: `tiny` (a smoke test), "
@@ -101,9 +106,16 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                 "the material card.",
     ("conditions[]", "photo"): "a lab heap photo shown next to the simulated heap in the report; "
                                "inside the campaign folder.",
+    ("conditions[]", "from_campaign"): "this condition's `from_campaign` (overrides `[campaign] "
+                                       "from_campaign`): the campaign file whose values calibrated "
+                                       "for the condition of the same name its runs keep fixed.",
     ("conditions[]", "targets"): "table `RESPONSE = { mean = ..., sd = ... }` (or `RESPONSE = "
                                  "mean`): the lab value to reproduce; overrides the sample's. "
                                  "Every response needs a target, given here or by the sample.",
+    ("conditions[]", "settings"): "table `KEY = VALUE` of settings fixed for this condition's runs "
+                                  "only (a key may not be a factor); wins over `from_campaign`, which "
+                                  "wins over `[experiment.settings]`. Conditions with different "
+                                  "fixed settings get a design each.",
     ("conditions[]", "reference"): "table `PARAMETER = VALUE` (parameter or factor name): "
                                    "published calibrated values the report evaluates next to "
                                    "demcal's; leave it out for a material of your own.",

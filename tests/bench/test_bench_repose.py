@@ -57,6 +57,36 @@ def test_lifted_cylinder_builds_a_heap(tmp_path):
     bore_mm = 1e3 * settings["geometry.cylinder_diameter"].default * settings["geometry.scale"].default
     assert r.responses["heap_diameter_mm"] > 1.1 * bore_mm  # the grains spread out of the bore
     assert (tmp_path / "heap.png").exists()
+    # the final spheres it keeps measure as the run did (single precision: 0.1 um at 1 m)
+    from demcal.io.spheres import read_spheres
+    from demcal.measure.heap import measure_heap
+
+    assert r.artifacts["heap_spheres"] == str(tmp_path / "heap_spheres.npz")
+    spheres = read_spheres(r.artifacts["heap_spheres"])
+    r_plate = 0.5 * settings["geometry.scale"].default * settings["geometry.plate_diameter"].default
+    assert spheres.base_z == 0.0 and spheres.plate_radius == pytest.approx(r_plate)
+    again = measure_heap(spheres.positions, spheres.radii, base_z=spheres.base_z, axis_xy=(0.0, 0.0),
+                         plate_radius=spheres.plate_radius)
+    assert again.angle_deg == pytest.approx(r.responses["repose_angle_deg"], abs=1e-3)
+    assert again.height * 1e3 == pytest.approx(r.responses["heap_height_mm"], abs=1e-3)
+
+
+def test_spheres_file_round_trips_and_a_broken_one_is_one_sentence(tmp_path):
+    from demcal.errors import DataError
+    from demcal.io.spheres import read_spheres, write_spheres
+
+    rng = np.random.default_rng(0)
+    positions, radii = rng.uniform(-0.5, 0.5, (300, 3)), rng.uniform(0.001, 0.006, 300)
+    path = write_spheres(tmp_path / "s.npz", positions, radii, base_z=0.01)
+    back = read_spheres(path)
+    np.testing.assert_array_equal(back.positions, positions.astype(np.float32))
+    np.testing.assert_array_equal(back.radii, radii.astype(np.float32))
+    np.testing.assert_allclose(back.positions, positions, rtol=0, atol=1e-7)
+    assert (back.base_z, back.plate_radius) == (0.01, None)
+    assert path.stat().st_size < 300 * 16 + 1000 and not list(tmp_path.glob(".*.tmp"))
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(DataError, match=r"^'.*bad.npz' is not a spheres file of demcal"):
+        read_spheres(tmp_path / "bad.npz")
 
 
 @pytest.mark.slow

@@ -107,15 +107,19 @@ def campaign_file(tmp_path):
     """
 
     def write(sleep: float = 0.02, replace: dict[str, str] | None = None, name: str = "campaign.toml") -> Path:
-        text = CAMPAIGN.format(sleep=sleep)
-        for old, new in (replace or {}).items():
-            assert old in text, old
-            text = text.replace(old, new, 1)
         path = tmp_path / name
-        path.write_text(text)
+        path.write_text(edited(CAMPAIGN.format(sleep=sleep), replace))
         return path
 
     return write
+
+
+def edited(text: str, replace: dict[str, str] | None = None) -> str:
+    """``text`` with each key of ``replace`` (which must occur) replaced once by its value."""
+    for old, new in (replace or {}).items():
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    return text
 
 
 def local_and_dask_results(campaign, root: Path):

@@ -13,7 +13,8 @@ directions, a least-squares line on each flank between ``measure.band_low`` and
 ``measure.band_high`` of the heap height, averaged over flanks and views (the response
 ``repose_angle_deg``; its spread over the flanks in ``spread``), with ``atan(2H/D)`` and
 the centre-of-mass cone ``atan(4 z_com / R)`` alongside. A picture of the silhouette with
-the fitted lines is written to ``out_dir/heap.png``.
+the fitted lines is written to ``out_dir/heap.png``, the measurement to ``heap.json`` and
+the final spheres to ``heap_spheres.npz`` (:mod:`demcal.io.spheres`).
 
 Geometry. The paper scales its test platform 4x because its particles are large
 (Section 2.2) but gives no dimensions. Our instrument, at scale 1 (lab size): a base
@@ -118,8 +119,8 @@ def _check_plate(tpl, sizes, n, k, r_plate) -> float:
 
 
 def _measure(sim, s, plate_radius, out_dir, vtkw, progress) -> dict:
-    """Measure the heap at rest; write heap.png and heap.json to ``out_dir``; the run's
-    result (responses, spread, counts, artifacts)."""
+    """Measure the heap at rest; write heap.png, heap.json and heap_spheres.npz to
+    ``out_dir``; the run's result (responses, spread, counts, artifacts)."""
     from demcal.measure.heap import measure_heap
 
     progress(f"at rest at t {sim.time:.2f} s; measuring")
@@ -136,12 +137,16 @@ def _measure(sim, s, plate_radius, out_dir, vtkw, progress) -> dict:
         raise SimulationError(f"the heap could not be measured: {exc}") from None
     artifacts = {}
     if png is not None:
+        from demcal._files import write_atomic
+        from demcal.io.spheres import SPHERES_FILE, write_spheres
+
         artifacts["heap_png"] = str(png)
         path = Path(out_dir, "heap.json")
-        from demcal._files import write_atomic
-
         write_atomic(path, json.dumps(m.to_dict(), indent=1))
         artifacts["heap_json"] = str(path)
+        # the final spheres, for the report's 3-D view of the heap and for measuring it again
+        artifacts["heap_spheres"] = str(write_spheres(Path(out_dir, SPHERES_FILE), st.sphere_positions,
+                                                      st.radii, base_z=0.0, plate_radius=plate_radius))
     responses = {
         "repose_angle_deg": m.angle_deg,
         "repose_angle_hd_deg": m.h_over_d_angle_deg,

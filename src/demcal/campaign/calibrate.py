@@ -137,34 +137,68 @@ class ConditionResult:
 
 
 @dataclass
-class Calibration:
-    """Everything ``demcal calibrate`` found for a campaign."""
+class DesignFit:
+    """One design of a campaign with its results and models: the campaign's own, or one per
+    distinct set of conditions' fixed settings (:meth:`Campaign.designs`)."""
 
-    campaign: Campaign
+    campaign: Campaign  #: the campaign as this design's runs see it (its conditions' settings added)
+    conditions: tuple[Condition, ...]  #: the conditions it serves
     table: pd.DataFrame  #: the design with its results (design_results)
     full: dict[str, Any]  #: response -> the full model of the campaign's order
     models: dict[str, Any]  #: response -> the model used (reduced if asked)
     removed: dict[str, tuple]  #: response -> terms removed by the reduction, with p
+
+    @property
+    def name(self) -> str:
+        """The conditions it serves, e.g. "6.26 %" or "6.26 %, 14.1 %"."""
+        return ", ".join(c.name for c in self.conditions)
+
+
+@dataclass
+class Calibration:
+    """Everything ``demcal calibrate`` found for a campaign."""
+
+    campaign: Campaign
+    table: pd.DataFrame  #: the (first) design with its results (design_results)
+    full: dict[str, Any]  #: response -> the full model of the campaign's order (first design)
+    models: dict[str, Any]  #: response -> the model used (reduced if asked; first design)
+    removed: dict[str, tuple]  #: response -> terms removed by the reduction, with p (first design)
     conditions: list[ConditionResult]
     notes: list[str] = field(default_factory=list)
     #: what must be read before the results (failed design runs left out of the fit);
     #: the same facts are in ``notes``, which the report shows
     warnings: list[str] = field(default_factory=list)
+    #: every design: one, or one per distinct set of conditions' fixed settings
+    designs: list[DesignFit] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if not self.designs:
+            self.designs = [DesignFit(self.campaign, tuple(self.campaign.conditions), self.table, self.full,
+                                      self.models, self.removed)]
 
     def to_dict(self) -> dict[str, Any]:
+        """calibration.json: with several designs, each condition holds its design's models;
+        with per-condition settings, each condition holds its fixed settings and their sources."""
         out: dict[str, Any] = {"campaign": self.campaign.name, "profile": self.campaign.profile,
                                "test": self.campaign.test, "warnings": list(self.warnings),
                                "notes": list(self.notes), "models": {},
                                "conditions": []}
-        for name, model in self.models.items():
-            out["models"][name] = {
-                **model.to_dict(), "order": self.campaign.model_order,
-                "removed": [{"term": t, "p": p} for t, p in self.removed.get(name, ())],
-                "equation_coded": model.equation("coded"), "equation_actual": model.equation("actual"),
-            }
+        several = len(self.designs) > 1
+        if not several:
+            out["models"] = _models_dict(self.campaign, self.designs[0])
+        settings = {}
+        if self.campaign.per_condition:
+            from demcal.campaign.chain import condition_settings
+
+            settings = condition_settings(self.campaign)
         for result in self.conditions:
+            design = next(d for d in self.designs if result.condition.name in {c.name for c in d.conditions})
             out["conditions"].append({
                 "name": result.condition.name,
+                **({"settings": {key: {"value": value, "source": source}
+                                 for key, (value, source) in settings[result.condition.name].items()}}
+                   if settings else {}),
+                **({"models": _models_dict(self.campaign, design)} if several else {}),
                 "chosen": result.chosen, "chosen_coded": result.chosen_coded,
                 "desirability": result.desirability,
                 "factor_ranges": {k: list(v) for k, v in result.factor_ranges.items()},
@@ -185,6 +219,14 @@ class Calibration:
                 ],
             })
         return out
+
+
+def _models_dict(campaign: Campaign, design: DesignFit) -> dict[str, Any]:
+    """The models of one design, for calibration.json."""
+    return {name: {**model.to_dict(), "order": campaign.model_order,
+                   "removed": [{"term": t, "p": p} for t, p in design.removed.get(name, ())],
+                   "equation_coded": model.equation("coded"), "equation_actual": model.equation("actual")}
+            for name, model in design.models.items()}
 
 
 def _loop_dict(campaign: Campaign, loop) -> dict[str, Any]:
@@ -271,8 +313,14 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     """Fit, solve every condition and (``simulate=True``) run the verification replicates.
 
     With ``simulate=False`` nothing is run: verification results are taken from the
-    store as far as they exist (what ``demcal report`` does).
+    store as far as they exist (what ``demcal report`` does). A campaign whose conditions
+    take settings from another campaign (``from_campaign``) reads them first
+    (:func:`demcal.campaign.chain.resolve_chain`); conditions with settings of their own
+    are fitted, solved and verified on their own design's runs.
     """
+    from demcal.campaign.chain import resolve_chain
+
+    campaign = resolve_chain(campaign)
     store_path = campaign.store_path
     production_profile(campaign)  # a production profile that does not suit the campaign: one sentence first
     if not store_path.is_file():
@@ -286,22 +334,58 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
         raise DataError(f"{campaign.path.name} has no results yet; run `demcal run {campaign.path}` first.")
     with Store(store_path, readonly=True) as store:
         check_store_owner(campaign, store)
-        table = design_results(campaign, store)
-        done = int((table["status"] == "done").sum())
-        elsewhere = {}  # profile -> design runs done under it, when too few are done under this one
-        if done <= len(campaign.factors) + 1:
-            from demcal.bench.registry import get_experiment
-            from demcal.errors import DemcalError
+        designs = [(boxed, conditions) + _design_table(boxed, store) for boxed, conditions in campaign.designs()]
+    fits, failed, poor, notes = [], [], [], []
+    for boxed, conditions, table, elsewhere in designs:
+        # with several designs, each sentence says whose design it is about
+        whose = f"the design of {', '.join(c.name for c in conditions)}: " if len(designs) > 1 else ""
+        fit, fit_failed, fit_notes = _fit_design(boxed, conditions, table, elsewhere, simulate, whose)
+        fits.append(fit)
+        failed += fit_failed
+        poor += [whose + w for w in adequacy_warnings(boxed, fit.models, profile=False)]
+        notes += fit_notes
+    warnings = failed + adequacy_warnings(campaign, {}) + poor  # failed design runs first
+    from demcal.campaign.chain import chain_notes
 
-            for profile in get_experiment(campaign.test).profiles:
-                if profile == campaign.profile:
-                    continue
-                try:
-                    other = design_results(campaign.with_profile(profile), store)
-                except DemcalError:  # the campaign's settings do not fit that profile
-                    continue
-                if (count := int((other["status"] == "done").sum())):
-                    elsewhere[profile] = count
+    notes = warnings + chain_notes(campaign) + [note for note in notes if note not in warnings]
+    results = _close_loops(campaign, fits, notes, simulate=simulate, workers=workers, scheduler=scheduler,
+                           progress=progress, retry_failed=retry_failed, executor=executor)
+    first = fits[0]
+    calibration = Calibration(campaign, first.table, first.full, first.models, first.removed, results, notes,
+                              warnings, designs=fits)
+    if simulate:
+        write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
+    return calibration
+
+
+def _design_table(campaign: Campaign, store: Store) -> tuple[pd.DataFrame, dict[str, int]]:
+    """The design with its results, and, when too few of its runs are done under the
+    campaign's profile, profile -> design runs done under each other profile."""
+    table = design_results(campaign, store)
+    done = int((table["status"] == "done").sum())
+    elsewhere = {}
+    if done <= len(campaign.factors) + 1:
+        from demcal.bench.registry import get_experiment
+        from demcal.errors import DemcalError
+
+        for profile in get_experiment(campaign.test).profiles:
+            if profile == campaign.profile:
+                continue
+            try:
+                other = design_results(campaign.with_profile(profile), store)
+            except DemcalError:  # the campaign's settings do not fit that profile
+                continue
+            if (count := int((other["status"] == "done").sum())):
+                elsewhere[profile] = count
+    return table, elsewhere
+
+
+def _fit_design(campaign: Campaign, conditions, table: pd.DataFrame, elsewhere: dict[str, int], simulate: bool,
+                whose: str) -> tuple[DesignFit, list[str], list[str]]:
+    """Fit one design's models once enough of its runs are done: ``(fit, failed, notes)``,
+    ``failed`` the warning about its failed runs, if any (each sentence prefixed by
+    ``whose``); one :class:`DataError` sentence when the design is not ready."""
+    done = int((table["status"] == "done").sum())
     failed = int((table["status"] == "failed").sum())
     unfinished = len(table) - done - failed  # pending, running in another runner, or never planned
     if done <= len(campaign.factors) + 1 or (simulate and unfinished):
@@ -310,17 +394,17 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
             there = ", ".join(f"{n} are done under '{p}'" for p, n in sorted(elsewhere.items(), key=lambda i: -i[1]))
             here = (f"no design run is done under profile '{campaign.profile}'" if done == 0 else
                     f"only {done} of {len(table)} design runs are done under profile '{campaign.profile}'")
-            raise DataError(f"{here}; {there}: give --profile {best}, or run "
+            raise DataError(f"{whose}{here}; {there}: give --profile {best}, or run "
                             f"`demcal run {campaign.path} --profile {campaign.profile}` to finish these.")
         if unfinished:
-            raise _unfinished(campaign, table, unfinished, failed)
-        raise DataError(f"only {done} of {len(table)} design runs are done; rerun the failed ones with "
+            raise _unfinished(campaign, table, unfinished, failed, whose)
+        raise DataError(f"{whose}only {done} of {len(table)} design runs are done; rerun the failed ones with "
                         f"`demcal run {campaign.path} --profile {campaign.profile} --retry-failed`.")
     try:
         full, models, removed, notes = fit_models(campaign, table)
     except DataError:
         if unfinished:  # too few runs for the model: the advice is to finish the design
-            raise _unfinished(campaign, table, unfinished, failed) from None
+            raise _unfinished(campaign, table, unfinished, failed, whose) from None
         raise
     warnings = []
     if failed and not unfinished:
@@ -328,30 +412,23 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
         warnings.append(f"{failed} of {len(table)} design runs failed and are left out of the fit, so the "
                         f"model rests on {done}; rerun them with `demcal run {campaign.path} --profile "
                         f"{campaign.profile} --retry-failed`, then calibrate again.")
-        notes = warnings + [n for n in notes if "are left out of the fit" not in n]
-
-    warnings += adequacy_warnings(campaign, models)
-    notes = warnings + [note for note in notes if note not in warnings]
-    results = _close_loops(campaign, table, notes, simulate=simulate, workers=workers, scheduler=scheduler,
-                           progress=progress, retry_failed=retry_failed, executor=executor)
-    calibration = Calibration(campaign, table, full, models, removed, results, notes, warnings)
-    if simulate:
-        write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
-    return calibration
+        notes = [n for n in notes if "are left out of the fit" not in n]
+    fit = DesignFit(campaign, tuple(conditions), table, full, models, removed)
+    return fit, [whose + w for w in warnings], [whose + n for n in notes]
 
 
-def adequacy_warnings(campaign: Campaign, models: dict) -> list[str]:
+def adequacy_warnings(campaign: Campaign, models: dict, profile: bool = True) -> list[str]:
     """Why the fitted models may not be fit to calibrate with, one sentence each.
 
     Design-Expert's checks (Stat-Ease's help on the ANOVA's fit statistics): predicted
     R² negative, or more than :data:`R2_AGREEMENT` below adjusted R²; lack of fit
     significant (p < :data:`LACK_OF_FIT_ALPHA`); adequate precision (signal to noise)
-    below :data:`MIN_ADEQUATE_PRECISION`. And the ``tiny`` profile, which only checks
-    that the machinery runs.
+    below :data:`MIN_ADEQUATE_PRECISION`. And (``profile``) the ``tiny`` profile, which
+    only checks that the machinery runs.
     """
     out = []
     profiles = {campaign.profile, production_profile(campaign)}
-    if "tiny" in profiles:
+    if profile and "tiny" in profiles:
         out.append("profile 'tiny' is a smoke test; not a calibration: its particles are too few for the "
                    f"angles to mean anything; run `demcal run {campaign.path} --profile quick` "
                    "and calibrate at that profile for parameters to use.")
@@ -410,9 +487,10 @@ def production_profile(campaign: Campaign) -> str:
     return production
 
 
-def _close_loops(campaign: Campaign, table: pd.DataFrame, notes: list[str], *, simulate: bool, workers, scheduler,
-                 progress: bool, retry_failed: bool, executor) -> list[ConditionResult]:
-    """Run :func:`demcal.campaign.loop.run_condition` for every condition."""
+def _close_loops(campaign: Campaign, designs: list[DesignFit], notes: list[str], *, simulate: bool, workers,
+                 scheduler, progress: bool, retry_failed: bool, executor) -> list[ConditionResult]:
+    """Run :func:`demcal.campaign.loop.run_condition` for every condition, on its design
+    and with its fixed settings (every run the loop asks for carries them)."""
     from demcal.campaign.executors import make_executor
     from demcal.campaign.loop import run_condition
     from demcal.optimize import reachable_range
@@ -422,10 +500,10 @@ def _close_loops(campaign: Campaign, table: pd.DataFrame, notes: list[str], *, s
     own: list = []
     cache: dict[str, Any] = {}
 
-    # The loop sees only the runs it has asked for so far (the design's, then each
+    # The loop sees only the runs it has asked for so far (the designs', then each
     # step's, in order), never runs that a later step or condition added to the store:
     # that keeps a replay (resume, `demcal report`) identical to the first pass.
-    seen: set[str] = set(table["key"])
+    seen: set[str] = {key for design in designs for key in design.table["key"]}
 
     def records() -> list[RunRecord]:
         if "all" not in cache:
@@ -460,9 +538,10 @@ def _close_loops(campaign: Campaign, table: pd.DataFrame, notes: list[str], *, s
     residuals: dict[str, list] = {}  # production - cheap, learnt condition after condition
     try:
         for ci, condition in enumerate(campaign.conditions):
-            loop = run_condition(campaign, condition, ci, cheap=campaign.profile, production=production,
-                                 design_table=table, run=run, records=records, residuals=residuals)
-            results.append(_condition_result(campaign, condition, loop, reachable_range))
+            design = next(d for d in designs if condition in d.conditions)
+            loop = run_condition(design.campaign, condition, ci, cheap=campaign.profile, production=production,
+                                 design_table=design.table, run=run, records=records, residuals=residuals)
+            results.append(_condition_result(design.campaign, condition, loop, reachable_range))
     finally:
         for ex in own:
             ex.close()
@@ -513,13 +592,13 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
     return result
 
 
-def _unfinished(campaign: Campaign, table: pd.DataFrame, unfinished: int, failed: int) -> DataError:
+def _unfinished(campaign: Campaign, table: pd.DataFrame, unfinished: int, failed: int, whose: str = "") -> DataError:
     """Design runs still pending: a fit of part of a design (and verification runs spent
     on it) is no calibration -- the design's balance is gone until every point is in."""
     running = int((table["status"] == "running").sum())
     busy = f" ({running} running in another runner)" if running else ""
     retry = f" (add --retry-failed for the {failed} failed)" if failed else ""
-    return DataError(f"{unfinished} of {len(table)} design runs are not done yet{busy}; finish them "
+    return DataError(f"{whose}{unfinished} of {len(table)} design runs are not done yet{busy}; finish them "
                      f"with `demcal run {campaign.path} --profile {campaign.profile}`{retry}, "
                      f"then calibrate again.")
 
@@ -543,15 +622,27 @@ def _judge(result: ConditionResult, verdict: ResponseVerdict) -> None:
 def describe(calibration: Calibration) -> str:
     """A few lines for the terminal; warnings about the design come first."""
     lines = [f"warning: {warning}" for warning in calibration.warnings]
-    for response, model in calibration.models.items():
-        fit = model.fit
-        lines.append(f"{response}: {calibration.campaign.model_order} model"
-                     + (f" reduced at alpha {calibration.campaign.reduce_alpha:g}" if calibration.removed[response] else "")
-                     + f", R² {fit.r2:.3f}, adj. R² {fit.adj_r2:.3f}, pred. R² {fit.pred_r2:.3f}")
-        lines.append(f"  {model.equation('coded', digits=4)}")
+    several = len(calibration.designs) > 1
+    for design in calibration.designs:
+        for response, model in design.models.items():
+            fit = model.fit
+            lines.append((f"{design.name}: " if several else "")
+                         + f"{response}: {calibration.campaign.model_order} model"
+                         + (f" reduced at alpha {calibration.campaign.reduce_alpha:g}"
+                            if design.removed[response] else "")
+                         + f", R² {fit.r2:.3f}, adj. R² {fit.adj_r2:.3f}, pred. R² {fit.pred_r2:.3f}")
+            lines.append(f"  {model.equation('coded', digits=4)}")
+    fixed = {}
+    if calibration.campaign.per_condition:
+        from demcal.campaign.chain import SOURCE_DEFAULT, condition_settings
+
+        fixed = condition_settings(calibration.campaign)
     for result in calibration.conditions:
         params = ", ".join(f"{k} = {v:g}" for k, v in result.chosen.items())
         lines.append(f"{result.condition.name}: {params}")
+        if fixed:
+            lines.append("  fixed: " + ", ".join(f"{k} = {v} ({source})" for k, (v, source)
+                                                 in fixed[result.condition.name].items() if source != SOURCE_DEFAULT))
         if result.loop is not None:
             moved = len(result.loop.boxes) - 1
             lines.append(f"  loop: {result.loop.status}"

@@ -12,15 +12,15 @@ high 0.3; swap them.``
 Layout (every table and key; ``examples/residual-film-soil/repose.toml`` is a full
 example)::
 
-    [campaign]      name, description, workdir, lab (a TOML file of lab records)
+    [campaign]      name, description, workdir, lab (a TOML file of lab records), from_campaign
     [experiment]    test, profile, plugins, [experiment.settings] KEY = VALUE
     [[factors]]     name, parameter, low, high, label, unit, hard_low, hard_high
     [design]        type, center, variant, alpha, fraction, levels, runs
     [[responses]]   name, label, unit
     [runs]          seed, replicates
     [model]         order, reduce_alpha
-    [[conditions]]  name, label, sample, photo, [conditions.targets] RESPONSE = {mean, sd},
-                    [conditions.reference] PARAMETER = VALUE
+    [[conditions]]  name, label, sample, photo, from_campaign, [conditions.targets] RESPONSE = {mean, sd},
+                    [conditions.settings] KEY = VALUE, [conditions.reference] PARAMETER = VALUE
     [verification]  replicates, seed
     [calibration]   production, replicates, max_replicates, iterations, box_moves, path_points,
                     path_replicates (the closed loop of :mod:`demcal.campaign.loop`)
@@ -30,6 +30,12 @@ example)::
                     tables each report table reproduces, e.g. ``factors = "paper Table 3"``:
                     only a campaign that reproduces a publication names one; see
                     :data:`CAPTION_KEYS`)
+
+Settings fixed for one condition's runs alone (a moisture content's own inter-particle
+values, say) come from ``[conditions.settings]`` and from ``from_campaign`` (per condition,
+or in ``[campaign]`` for every condition): another campaign file whose calibrated values
+(its ``calibration.json``) the condition of the same name takes. The file only names that
+campaign; :func:`demcal.campaign.chain.resolve_chain` reads its values when runs are planned.
 
 Results live in ``[campaign] workdir``, by default ``<name>-runs`` next to the file
 (the campaign's name made filename-safe), so a copy of the file finds the same results.
@@ -69,14 +75,14 @@ from demcal.errors import ConfigError
 _ALLOWED: dict[str, tuple[str, ...]] = {
     "": ("campaign", "experiment", "factors", "design", "responses", "runs", "model",
          "conditions", "verification", "calibration", "budget", "executor", "report"),
-    "campaign": ("name", "description", "workdir", "lab"),
+    "campaign": ("name", "description", "workdir", "lab", "from_campaign"),
     "experiment": ("test", "profile", "plugins", "settings"),
     "factors[]": ("name", "parameter", "low", "high", "label", "unit", "hard_low", "hard_high"),
     "design": ("type", "center", "variant", "alpha", "fraction", "levels", "runs"),
     "responses[]": ("name", "label", "unit"),
     "runs": ("seed", "replicates"),
     "model": ("order", "reduce_alpha"),
-    "conditions[]": ("name", "label", "sample", "photo", "targets", "reference"),
+    "conditions[]": ("name", "label", "sample", "photo", "from_campaign", "targets", "settings", "reference"),
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
     "calibration": ("production", "replicates", "max_replicates", "iterations", "box_moves", "path_points",
@@ -124,6 +130,20 @@ class Target:
 
 
 @dataclass(frozen=True)
+class Upstream:
+    """Another campaign whose calibrated values a condition takes as fixed settings
+    (``from_campaign``). ``values`` stay None until
+    :func:`demcal.campaign.chain.resolve_chain` has read them from its calibration.json."""
+
+    path: Path  #: the other campaign's file
+    workdir: Path  #: its results' folder, where ``demcal calibrate`` writes calibration.json
+    name: str  #: its ``[campaign] name``
+    values: Mapping[str, float] | None = None  #: parameter key -> the value calibrated there
+    status: str | None = None  #: how that condition's loop ended there ("verified", ...)
+    profile: str | None = None  #: the profile it was calibrated at
+
+
+@dataclass(frozen=True)
 class Condition:
     """One material state (e.g. a moisture content) with its lab targets."""
 
@@ -134,9 +154,21 @@ class Condition:
     reference: Mapping[str, float] = field(default_factory=dict)
     photo: Path | None = None  #: a measured heap photo shown next to the simulated one
     sample: Any = None  #: the sample's :class:`demcal.measure.lab.LabRecord`, if named
+    #: ``[conditions.settings]``: settings fixed for this condition's runs alone
+    settings: Mapping[str, Any] = field(default_factory=dict)
+    upstream: Upstream | None = None  #: the campaign it takes calibrated values from, if any
 
     def target(self, response: str) -> Target:
         return next(t for t in self.targets if t.response == response)
+
+    @property
+    def fixed(self) -> dict[str, Any]:
+        """The settings fixed for this condition's runs alone: the values calibrated by
+        its ``from_campaign``, overridden by its own ``[conditions.settings]``."""
+        if self.upstream is not None and self.upstream.values is None:
+            raise RuntimeError(f"condition '{self.name}' takes values from {self.upstream.path.name}, which are "
+                               "not read yet; pass the campaign through demcal.campaign.chain.resolve_chain")
+        return {**(self.upstream.values if self.upstream is not None else {}), **self.settings}
 
 
 @dataclass(frozen=True)
@@ -212,6 +244,29 @@ class Campaign:
     def store_path(self) -> Path:
         return self.workdir / "store.sqlite"
 
+    @property
+    def per_condition(self) -> bool:
+        """Whether some condition fixes settings of its own (``[conditions.settings]`` or
+        ``from_campaign``), so that its runs differ from the other conditions'."""
+        return any(c.settings or c.upstream is not None for c in self.conditions)
+
+    def for_condition(self, condition: Condition) -> "Campaign":
+        """The campaign as ``condition``'s runs see it: its own fixed settings added to
+        (and taking precedence over) ``[experiment.settings]``."""
+        fixed = condition.fixed
+        if not fixed:
+            return self
+        return dataclasses.replace(self, settings={**self.settings, **fixed})
+
+    def designs(self) -> list[tuple["Campaign", tuple[Condition, ...]]]:
+        """One design per distinct set of conditions' fixed settings: the campaign its runs
+        see (:meth:`for_condition`) and the conditions it serves. A campaign without
+        per-condition settings has one, itself."""
+        groups: dict[str, list[Condition]] = {}
+        for condition in self.conditions:
+            groups.setdefault(repr(sorted(condition.fixed.items())), []).append(condition)
+        return [(self.for_condition(members[0]), tuple(members)) for members in groups.values()]
+
     def with_profile(self, profile: str) -> "Campaign":
         """The same campaign run at another profile of its experiment."""
         if profile == self.profile:
@@ -219,7 +274,8 @@ class Campaign:
         from demcal.bench.registry import get_experiment, resolve_settings
 
         experiment = get_experiment(self.test)
-        resolve_settings(experiment, self.settings, profile)
+        for settings in [{}] + [c.settings for c in self.conditions]:
+            resolve_settings(experiment, {**self.settings, **settings}, profile)
         return dataclasses.replace(self, profile=profile)
 
     def with_production(self, production: str) -> "Campaign":
@@ -454,12 +510,9 @@ class _Loader:
                 form = f"[[{name}]]" if name in ("factors", "conditions") else f"[{name}]"
                 raise self.error((), f"missing {form}; a campaign needs {form}")
 
-        meta = self.table(data, "campaign", (), required=True)
-        self.check_keys(meta, ("campaign",), "campaign")
-        name = self.string(meta, "name", ("campaign",))
+        meta, name, workdir = self.location()
         description = meta.get("description", "")
-        written = self.string(meta, "workdir", ("campaign",), default_workdir(name, self.path))
-        workdir = self.inside(self.path.parent / written, written, ("campaign", "workdir"), "workdir")
+        upstream = self.upstream(meta, ("campaign",))
 
         self.samples = self.lab_records(meta)
         experiment, test, profile, plugins, settings = self.experiment()
@@ -471,7 +524,7 @@ class _Loader:
                              f"'{overlap[0]}' is both a factor and a fixed setting; keep one")
         design = self.design(len(factors))
         responses = self.responses(experiment)
-        conditions = self.conditions(responses, factors)
+        conditions = self.conditions(responses, factors, experiment, table, profile, upstream)
 
         runs = self.table(data, "runs", ())
         self.check_keys(runs, ("runs",), "runs")
@@ -544,6 +597,40 @@ class _Loader:
             reference_table=reference_table,
             captions=captions,
         )
+
+    def location(self) -> tuple[dict, str, Path]:
+        """``[campaign]``, the campaign's name and its workdir (the results' folder)."""
+        meta = self.table(self.data, "campaign", (), required=True)
+        self.check_keys(meta, ("campaign",), "campaign")
+        name = self.string(meta, "name", ("campaign",))
+        written = self.string(meta, "workdir", ("campaign",), default_workdir(name, self.path))
+        workdir = self.inside(self.path.parent / written, written, ("campaign", "workdir"), "workdir")
+        return meta, name, workdir
+
+    def upstream(self, data: Mapping, where: tuple) -> Upstream | None:
+        """The campaign that ``from_campaign`` in ``data`` names: its file, name and results'
+        folder (read from its ``[campaign]`` table only; its values are read when runs are
+        planned, by :func:`demcal.campaign.chain.resolve_chain`)."""
+        if "from_campaign" not in data:
+            return None
+        key = where + ("from_campaign",)
+        written = self.string(data, "from_campaign", where)
+        path = self.inside(self.path.parent / written, written, key, "from_campaign")
+        if not path.is_file():
+            raise self.error(key, f"from_campaign '{written}' does not exist next to the campaign file"
+                             if not path.exists() else
+                             f"from_campaign '{written}' is not a file; give the other campaign's file (TOML)")
+        if path.resolve() == self.path.resolve():
+            raise self.error(key, f"from_campaign '{written}' is this campaign file itself; name the campaign "
+                                  "whose calibrated values the conditions take")
+        try:
+            text = _decode(read_limited(path, MAX_TOML_BYTES, "campaign file"), path.name)
+            _, name, workdir = _Loader(text, path, allow_outside=self.allow_outside).location()
+        except OSError as exc:
+            raise self.error(key, f"from_campaign '{written}' cannot be read ({exc.strerror or exc})") from None
+        except ConfigError as exc:
+            raise self.error(key, f"from_campaign '{written}': {exc}") from None
+        return Upstream(path=path, workdir=workdir, name=name)
 
     def captions(self, report: Mapping) -> dict[str, str]:
         """``[report] captions``: a table of strings keyed by :data:`CAPTION_KEYS`."""
@@ -754,7 +841,8 @@ class _Loader:
             responses.append(Response(name=name, label=str(data.get("label", name)), unit=str(data.get("unit", ""))))
         return tuple(responses)
 
-    def conditions(self, responses, factors) -> tuple[Condition, ...]:
+    def conditions(self, responses, factors, experiment, table, profile,
+                   upstream: Upstream | None) -> tuple[Condition, ...]:
         raw = self.array_of_tables("conditions")
         if not raw:
             raise self.error(("conditions",), "a campaign needs at least one [[conditions]] table with its targets")
@@ -818,6 +906,13 @@ class _Loader:
                 self.number(reference, key, where + ("reference",))
             by_name = {f.name: f.parameter for f in factors}
             reference = {by_name.get(k, k): float(v) for k, v in reference.items()}
+            settings = dict(self.table(data, "settings", where))
+            for key, value in settings.items():
+                if key in {f.parameter for f in factors}:
+                    raise self.error(where + ("settings", key),
+                                     f"'{key}' is a factor of this campaign, so condition '{name}' cannot fix it; "
+                                     "remove it from [conditions.settings] (the design varies it)")
+                self.check_setting(experiment, table, profile, key, value, where + ("settings", key))
             photo = None
             if "photo" in data:
                 written = self.string(data, "photo", where)
@@ -827,7 +922,8 @@ class _Loader:
                                      if not photo.exists() else f"photo '{written}' is not a file; give an image file")
             conditions.append(Condition(name=name, label=str(data.get("label", name)),
                                         targets=tuple(targets), reference=reference, photo=photo,
-                                        sample=sample))
+                                        sample=sample, settings=settings,
+                                        upstream=self.upstream(data, where) or upstream))
         return tuple(conditions)
 
     def calibration(self, experiment, factors, verification: Mapping) -> CalibrationConfig:

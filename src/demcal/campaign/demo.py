@@ -1,8 +1,11 @@
 """``demcal demo``: the reference paper's two campaigns end to end.
 
-Copies ``examples/residual-film-soil`` into ``OUT/campaigns``, runs the repose
-(29 runs) and sliding (17 runs) designs, calibrates both (verification replicates
-included) and writes one report with both campaigns and the paper's re-analysis.
+Copies ``examples/residual-film-soil`` into ``OUT/campaigns``, runs the repose design
+(29 runs) and calibrates it (verification replicates included), then the sliding one
+(17 runs per moisture content: its runs of each condition take the inter-particle values
+the repose campaign calibrated for it, ``from_campaign``), and writes one report with both
+campaigns and the paper's re-analysis. Each campaign is calibrated before the next one
+runs, so a campaign chained to an earlier one finds its calibration.
 One executor serves every step, so workers start (and numba loads its cache) once.
 Re-running the demo resumes: finished runs are kept in ``OUT/campaigns/*-runs``.
 """
@@ -58,12 +61,11 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
                              config.start_method, campaigns[0].plugins)
     calibrations = []
     try:
-        for campaign in campaigns:
+        for campaign in campaigns:  # in order: a chained campaign needs the calibration of the one before
             summary = run_campaign(campaign, executor=executor, progress=progress)
             _say(summary.sentence(campaign.name))
             for label, error in summary.failures[:5]:
                 _say(f"  {label}: {error}")
-        for campaign in campaigns:
             calibration = calibrate(campaign, executor=executor, progress=progress)
             _say(describe(calibration))
             calibrations.append(calibration)

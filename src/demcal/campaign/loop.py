@@ -1,11 +1,17 @@
 """The closed calibration loop: move the box, correct between fidelities, verify.
 
-``demcal calibrate`` runs one loop per condition (paper §2.3 and §3.2 made a loop):
+``demcal calibrate`` runs one loop per condition (paper §2.3 and §3.2 made a loop), on
+that condition's campaign (:meth:`~demcal.campaign.config.Campaign.for_condition`): a
+condition with fixed settings of its own (``[conditions.settings]``, ``from_campaign``)
+starts from its own design, and every run its loop asks for -- path points, moved
+boxes' designs, production runs -- carries those settings:
 
 1. **Fit and solve** the campaign's response model on the cheap profile's runs inside
    the current box (box 0 is the campaign's own design). The target the cheap model
    must meet is the lab's mean minus the *discrepancy* between the production profile
-   and the cheap model (zero until production runs exist).
+   and the cheap model: until production runs exist, the bias measured between the two
+   profiles in a bench study and stored with them (:mod:`demcal.bench.profiles`, e.g.
+   ``quick`` -> ``paper``) where one applies to the campaign's settings, else zero.
 2. **Move the box** when that target lies outside what the model reaches in the box:
    the classic path of steepest ascent (or descent) from the box centre, along the
    model's gradient there in coded units, scaled so the factor with the largest effect
@@ -191,13 +197,18 @@ class Discrepancy:
     Gaussian process works in the coded units of the campaign's own box, box 0.
     """
 
-    def __init__(self, residuals: Sequence[tuple[np.ndarray, float]]):
+    def __init__(self, residuals: Sequence[tuple[np.ndarray, float]], prior=None):
         self.n = len(residuals)
         self.kind = "none"
         self.bias, self.bias_se = 0.0, float("nan")
         self.gp = None
         self.distinct = 0
+        self.prior = prior
         if not residuals:
+            if prior is not None:  # a bias measured between the profiles (demcal.bench.profiles)
+                self.kind = "stored"
+                # its uncertainty at a new point: the mean's se and the spread between points
+                self.bias, self.bias_se = prior.bias, float(math.hypot(prior.se, prior.sd_points))
             return
         x = np.array([p for p, _ in residuals], dtype=float)
         res = np.array([r for _, r in residuals], dtype=float)
@@ -234,6 +245,8 @@ class Discrepancy:
     def describe(self) -> str:
         if self.kind == "none":
             return "no production run yet (discrepancy 0)"
+        if self.kind == "stored":
+            return f"no production run yet: {self.prior.describe()}"
         se = f" ± {self.bias_se:.2f}" if np.isfinite(self.bias_se) else ""
         text = f"additive bias {self.bias:+.2f}{se} from {self.n} production runs"
         if self.gp is not None:
@@ -359,6 +372,21 @@ class Budget:
 Runner = Callable[[list[RunSpec], str], "list[RunRecord] | None"]
 
 
+def stored_priors(campaign: Campaign, cheap: str, production: str) -> dict:
+    """Response -> the bias measured between ``cheap`` and ``production`` for the campaign's
+    test (:mod:`demcal.bench.profiles`), where one applies to its fixed settings."""
+    from demcal.bench import profiles
+
+    if cheap == production or profiles.applies(campaign.settings):
+        return {}
+    out = {}
+    for name in campaign.response_names:
+        bias = profiles.stored(campaign.test, name, cheap, production)
+        if bias is not None:
+            out[name] = bias
+    return out
+
+
 def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: str, production: str,
                   design_table: pd.DataFrame, run: Runner, records: Callable[[], list[RunRecord]],
                   residuals: dict[str, list] | None = None, seed: int = 0) -> LoopResult:
@@ -369,6 +397,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
 
     cfg = campaign.calibration
     limits = physical_limits(campaign, cheap)
+    priors = stored_priors(campaign, cheap, production)
     first_replicates = cfg.replicates or campaign.verification_replicates
     budget = Budget(campaign)
     responses = [t.response for t in condition.targets]
@@ -401,7 +430,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             full, models, removed, fit_notes, table = fit_box(campaign, box, records(), cheap, design_table)
             notes.extend(n for n in fit_notes if n not in notes)
             state.update(models=models, full=full, removed=removed)
-            disc = {r: Discrepancy(residuals.get(r, [])) for r in responses}
+            disc = {r: Discrepancy(residuals.get(r, []), priors.get(r)) for r in responses}
             state["disc"] = disc
             centre0 = box0.to_coded(box.centre)
             cheap_target = {t.response: t.mean - disc[t.response](centre0)[0] for t in condition.targets}

@@ -1,11 +1,13 @@
 """Plan a campaign's runs, fill the store, run what is pending in parallel.
 
-``demcal run campaign.toml`` = :func:`plan_design` + :func:`run_specs`: each
-design point (and replicate) becomes a :class:`~demcal.campaign.store.RunSpec`
-with its own seed; the store skips what is already done; pending runs are claimed
-one at a time as workers free up, so several runners can share one store; a
-progress bar shows done / failed / remaining and the ETA. Verification runs of
-``demcal calibrate`` go through the same :func:`run_specs`.
+``demcal run campaign.toml`` = :func:`design_specs` + :func:`run_specs`: each design
+point (and replicate) becomes a :class:`~demcal.campaign.store.RunSpec` with its own
+seed (conditions with settings of their own get a design each); the store skips what
+is already done; pending runs are claimed one at a time as workers free up, so several
+runners can share one store; a progress bar shows done / failed / remaining and the
+ETA (on a terminal; in a log or a pipe, :class:`RunLog` prints a plain line per tenth
+of the runs). Verification runs of ``demcal calibrate`` go through the same
+:func:`run_specs`.
 
 While it runs, a runner heartbeats its claims and, every few seconds and once more
 before it leaves, puts back the claims of runners that died (their pid gone, or
@@ -17,6 +19,7 @@ runner with one sentence, its claims handed back and no partial folder left.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import os
 import re
 import shutil
@@ -149,6 +152,22 @@ def plan_design(campaign: Campaign) -> DesignPlan:
             points.append(i)
             replicates.append(r)
     return DesignPlan(coded, tuple(specs), tuple(points), tuple(replicates))
+
+
+def design_specs(campaign: Campaign) -> list[RunSpec]:
+    """Every design run of ``campaign``: its design, once per distinct set of conditions'
+    fixed settings (:meth:`~demcal.campaign.config.Campaign.designs`; its chain resolved
+    first), each run labelled with its conditions when there are several designs."""
+    from demcal.campaign.chain import resolve_chain
+
+    designs = resolve_chain(campaign).designs()
+    if len(designs) == 1:
+        return list(plan_design(designs[0][0]).specs)
+    specs = []
+    for boxed, conditions in designs:
+        names = ", ".join(c.name for c in conditions)
+        specs += [dataclasses.replace(s, label=f"{names} {s.label}") for s in plan_design(boxed).specs]
+    return specs
 
 
 def open_store(campaign: Campaign) -> Store:
@@ -326,18 +345,90 @@ def remove_leftovers(store: Store) -> int:
     return removed
 
 
-def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummary, campaign: Campaign,
-           progress: bool, desc: str, before: dict[str, int], engine_version) -> None:
+class RunLog:
+    """The runner's progress where stderr is not a terminal (a log file, a pipe, a batch
+    job): plain lines, each ended by a newline and none holding a carriage return, instead
+    of tqdm's bar redrawn in place. A line when the runs start, then one when a finished
+    run brings the count to a new tenth of the total or comes :attr:`INTERVAL_S` after
+    the last line, and one for the last run: a dozen lines for any campaign. It has the
+    few methods of tqdm the runner calls (``n``, ``update``, ``set_postfix_str``,
+    ``write``, ``close``).
+    """
+
+    #: Seconds after which a finished run is logged even within the same tenth.
+    INTERVAL_S = 60.0
+
+    def __init__(self, total: int, initial: int, desc: str, file, clock=time.monotonic):
+        self.total, self.n, self.desc, self.file, self.clock = int(total), int(initial), desc, file, clock
+        self.postfix = ""
+        self._initial = self.n
+        self._start = self._last = clock()
+        self._tenth = self._tenths(self.n)
+        self.write(f"{desc}: {self.total} runs, {self.n} of them finished before")
+
+    def _tenths(self, n: int) -> int:
+        return 10 * n // max(self.total, 1)
+
+    def set_postfix_str(self, text: str, refresh: bool = False) -> None:
+        self.postfix = text
+
+    def update(self, step: int = 1) -> None:
+        """Count ``step`` finished runs; log a line when one is due."""
+        if not step:
+            return
+        self.n += step
+        now = self.clock()
+        if self.n >= self.total or self._tenths(self.n) > self._tenth or now - self._last >= self.INTERVAL_S:
+            self._tenth, self._last = self._tenths(self.n), now
+            self.write(self.line(now))
+
+    def line(self, now: float) -> str:
+        """``design: 12/29 runs (41 %), failed 0, remaining 17, 00:41 elapsed, ETA 00:58``."""
+        from tqdm import tqdm
+
+        elapsed = now - self._start
+        ran = self.n - self._initial
+        parts = [f"{self.desc}: {self.n}/{self.total} runs ({100 * self.n // max(self.total, 1)} %)"]
+        parts += [item.replace("=", " ") for item in self.postfix.split()]
+        parts.append(f"{tqdm.format_interval(elapsed)} elapsed")
+        if ran > 0 and self.n < self.total:
+            parts.append(f"ETA {tqdm.format_interval(elapsed / ran * (self.total - self.n))}")
+        return ", ".join(parts)
+
+    def write(self, text: str) -> None:
+        """Print ``text`` on a line of its own."""
+        try:
+            self.file.write(text.rstrip("\n") + "\n")
+            self.file.flush()
+        except (OSError, ValueError):  # the reader went away: progress is not worth dying for
+            pass
+
+    def close(self) -> None:
+        pass
+
+
+def _progress_bar(total: int, initial: int, desc: str, progress: bool):
+    """tqdm's bar on a terminal (or a silent one without ``progress``), else a
+    :class:`RunLog` of plain lines, both on stderr."""
     from tqdm import tqdm
 
+    from demcal.dem.reporters import _is_terminal
+
+    if progress and not _is_terminal(sys.stderr):
+        return RunLog(total, initial, desc, sys.stderr)
+    return tqdm(total=total, initial=initial, desc=desc, unit="run", disable=not progress, file=sys.stderr,
+                dynamic_ncols=True, smoothing=0.1)
+
+
+def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummary, campaign: Campaign,
+           progress: bool, desc: str, before: dict[str, int], engine_version) -> None:
     keys = list(specs)
     runs_dir = store.runs_dir.resolve()
     timeout = campaign.executor.heartbeat_timeout_s
     beat_s = min(HEARTBEAT_S, timeout / 4)  # several beats before a claim may be thought stale
     in_flight: dict[Any, tuple[RunRecord, str]] = {}  #: handle -> (claim, temporary folder name)
     failed = before["failed"]
-    bar = tqdm(total=len(keys), initial=before["done"] + before["failed"], desc=desc, unit="run",
-               disable=not progress, file=sys.stderr, dynamic_ncols=True, smoothing=0.1)
+    bar = _progress_bar(len(keys), before["done"] + before["failed"], desc, progress)
 
     def advance(step: int) -> None:
         remaining = len(keys) - bar.n - step
@@ -441,8 +532,7 @@ def _record_outcome(store: Store, record: RunRecord, spec: RunSpec, tmp: str, ou
 def run_campaign(campaign: Campaign, *, workers: int | None = None, scheduler: str | None = None,
                  retry_failed: bool = False, progress: bool = True, executor=None) -> RunSummary:
     """Simulate every design point of ``campaign`` (what ``demcal run`` does)."""
-    plan = plan_design(campaign)
-    return run_specs(campaign, plan.specs, workers=workers, scheduler=scheduler, retry_failed=retry_failed,
+    return run_specs(campaign, design_specs(campaign), workers=workers, scheduler=scheduler, retry_failed=retry_failed,
                      progress=progress, executor=executor, desc=f"{campaign.name} design")
 
 

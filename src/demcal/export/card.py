@@ -18,10 +18,16 @@ Layout::
                     volume, size_distribution
     conditions[]    name, label,
                     lab           sample (the lab record) and targets (mean, sd)
+                    fixed_settings  KEY -> value, source: every setting the condition's runs
+                                  kept fixed besides the factors (source: "campaign file", or
+                                  "campaign repose.toml, calibrated" for a value taken from
+                                  another campaign's calibration by ``from_campaign``), as
+                                  calibration.json records them
                     parameters    KEY -> value, unit, source, description: the full parameter
                                   set of the calibrated material (source: calibrated, fixed
-                                  by the campaign file, default of the virtual test, or
-                                  demcal default where the test has no such setting)
+                                  by the campaign file, the other campaign's calibration as in
+                                  fixed_settings, default of the virtual test, or demcal
+                                  default where the test has no such setting)
                     materials     particle, steel, film -> density, shear_modulus,
                                   poisson_ratio, youngs_modulus, yield_strength
                     interactions  [{materials, restitution, static_friction,
@@ -55,6 +61,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from demcal import __version__
+from demcal.campaign.chain import SOURCE_FILE
 from demcal.errors import DataError
 
 CARD_VERSION = 1
@@ -69,7 +76,7 @@ PARTICLE_KEYS = ("particles.shape", "particles.scale_min", "particles.scale_max"
 
 #: Keys of a condition in calibration.json that the card reads; every other key is kept
 #: untouched under the condition's "calibration".
-_CONDITION_KEYS = ("name", "chosen", "verification")
+_CONDITION_KEYS = ("name", "chosen", "verification", "settings")
 
 #: demcal contact model -> (EDEM model, transferable, reason when not).
 EDEM_CONTACT = {
@@ -269,11 +276,14 @@ def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] |
             raise DataError(f"condition '{name}' has no chosen parameters in calibration.json; "
                             f"{again} again.")
         condition = next(c for c in campaign.conditions if c.name == name)
-        parameters = material_parameters(table, campaign.settings, chosen)
+        fixed = fixed_settings(campaign, condition, raw, warnings)
+        parameters = material_parameters(table, {k: v for k, (v, _) in fixed.items()}, chosen,
+                                         {k: source for k, (_, source) in fixed.items() if source != SOURCE_FILE})
         cards.append({
             "name": name,
             "label": condition.label,
             "lab": _lab(condition),
+            "fixed_settings": {k: {"value": _json_safe(v), "source": source} for k, (v, source) in fixed.items()},
             "parameters": parameters,
             "materials": materials(parameters),
             "interactions": interactions(parameters),
@@ -312,13 +322,34 @@ def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] |
     }
 
 
-def material_parameters(table: Mapping[str, Any], fixed: Mapping[str, Any],
-                        chosen: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+def fixed_settings(campaign, condition, calibrated: Mapping[str, Any],
+                   warnings: list[str]) -> dict[str, tuple[Any, str]]:
+    """KEY -> (value, source) of every setting the runs of ``condition`` kept fixed: as its
+    entry ``calibrated`` of calibration.json records them (a campaign with per-condition
+    settings), else as the campaign file gives them. A condition that took values from
+    another campaign without such a record adds a sentence to ``warnings``."""
+    from demcal.campaign.chain import SOURCE_DEFAULT
+
+    recorded = calibrated.get("settings")
+    if isinstance(recorded, Mapping):
+        return {str(k): (v.get("value"), str(v.get("source", SOURCE_FILE))) for k, v in recorded.items()
+                if isinstance(v, Mapping) and v.get("source") != SOURCE_DEFAULT}
+    if condition.upstream is not None:
+        warnings.append(f"calibration.json does not record the settings condition '{condition.name}' took from "
+                        f"{condition.upstream.path.name}, so the card gives only the campaign file's; "
+                        f"run `demcal calibrate {campaign.path}` again.")
+    return {k: (v, SOURCE_FILE) for k, v in {**campaign.settings, **condition.settings}.items()}
+
+
+def material_parameters(table: Mapping[str, Any], fixed: Mapping[str, Any], chosen: Mapping[str, Any],
+                        sources: Mapping[str, str] | None = None) -> dict[str, dict[str, Any]]:
     """The full parameter set of the calibrated material, KEY -> value, unit, source,
     description.
 
     ``table`` is the virtual test's settings table (:class:`~demcal.bench.registry.Setting`
-    by key), ``fixed`` the campaign's setting overrides, ``chosen`` the calibrated values.
+    by key), ``fixed`` the settings the runs kept fixed, ``chosen`` the calibrated values;
+    a fixed value's source is "fixed" (by the campaign file) unless ``sources`` names
+    another (e.g. "campaign repose.toml, calibrated").
     Keys of the material that the test has no setting for (a plug-in test) take demcal's
     defaults (:func:`demcal.bench.common.material_settings`) with source ``demcal default``.
     """
@@ -334,7 +365,7 @@ def material_parameters(table: Mapping[str, Any], fixed: Mapping[str, Any],
         if key in chosen:
             value, source = chosen[key], "calibrated"
         elif key in fixed:
-            value, source = fixed[key], "fixed"
+            value, source = fixed[key], (sources or {}).get(key, "fixed")
         elif key in table:
             value, source = table[key].default, "default"
         else:

@@ -76,4 +76,10 @@ def calibrated_line(condition: Mapping[str, Any]) -> str:
     text = f"calibrated: {', '.join(calibrated) or 'none'}"
     if fixed:
         text += f"; fixed by the campaign file: {', '.join(fixed)}"
+    taken: dict[str, list[str]] = {}  # source -> values another campaign calibrated (from_campaign)
+    for k, v in params.items():
+        if v["source"] not in ("calibrated", "fixed", "default", "demcal default"):
+            taken.setdefault(v["source"], []).append(f"{k} = {number(v['value'])}")
+    for source, values in taken.items():
+        text += f"; {source}: {', '.join(values)}"
     return text + "; every other value is a default (the JSON card gives each value's source)."

@@ -105,6 +105,8 @@ class PhotoMeasurement:
     fit : the flank fits, in ``unit`` with z up from the base line and x from the
         region's left edge.
     png : the annotated picture, if written.
+    outline : the detected outline in the full photo's pixels, ``(columns, rows)``: the
+        heap's upper edge in every column it covers, to a fraction of a pixel.
     """
 
     photo: str
@@ -120,10 +122,11 @@ class PhotoMeasurement:
     polarity: str
     fit: OutlineFit = field(repr=False)
     png: str | None = None
+    outline: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict:
-        """Every attribute but ``fit``."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "fit"}
+        """Every attribute but ``fit`` and ``outline``."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("fit", "outline")}
 
 
 def load_photo(path) -> np.ndarray:
@@ -502,6 +505,7 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
         polarity=polarity,
         fit=fit,
         png=str(png) if png is not None else None,
+        outline=(col + float(x0), edge + float(y0)),
     )
     if png is not None:
         picture = pixels if pixels.dtype == np.uint8 else pixels / full_scale

@@ -6,15 +6,26 @@ a report table reproduces, and columns that would be empty are left out):
 
 * warnings on the model's adequacy first (:func:`demcal.campaign.calibrate.adequacy_warnings`);
 * lab samples and targets (Table 1), factors and levels (Tables 3, 7);
-* the design with its simulated results (Tables 4, 8) and the run statistics;
+* where a campaign fixes settings per condition (``[conditions.settings]``, ``from_campaign``):
+  each condition's fixed settings with their values and where each came from;
+* the design with its simulated results (Tables 4, 8) and the run statistics (one design
+  per distinct set of conditions' fixed settings, each with its own model);
 * fit summary, ANOVA (Tables 5, 9), fit statistics, coefficients, the model
   equation in coded and actual units (Eqs. 4, 6);
 * predicted vs actual (Fig. 6), perturbation, response surfaces (Figs. 5, 9);
+* Design-Expert's diagnostics of each model: normal plot, externally studentized
+  residuals against predicted and run order, Cook's distance, Box-Cox, interaction
+  plots (:mod:`demcal.report.diagnostics`);
 * calibrated parameters per condition (Tables 6, 10) with the ranges of the
-  solution set, next to the published (``[conditions.reference]``) values;
+  solution set, next to the published (``[conditions.reference]``) values, with the
+  desirability ramps and the overlay plot of the lab window;
 * verification: simulated against measured, relative error, inside the lab spread
   or not, inside the model's 95 % prediction interval or not -- and plainly why not;
-* heap images simulated next to measured (Fig. 7), when the runs and photos exist;
+* the calibrated material's complete parameter set per condition, each value's source
+  (calibrated, fixed by the campaign, default), as the material card gives it;
+* heap images simulated next to measured (Fig. 7), when the runs and photos exist: the
+  verification run's final spheres in 3-D, its silhouette with the fitted flank lines,
+  and the lab photo with the outline and flank lines demcal measures in it;
 
 then a section that re-analyses the paper's own tables. Figures are embedded as
 base64 PNG (:class:`demcal.report.html.HtmlReport`).
@@ -106,7 +117,7 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
         report.section(c.title, level=2)
     if c.description:
         report.paragraph(c.description)
-    table = cal.table
+    table = pd.concat([design.table for design in cal.designs])
     done = table[table["status"] == "done"]
     report.paragraph(
         f"Virtual test {c.test}, profile {c.profile}; {len(done)} of {len(table)} design runs done"
@@ -130,15 +141,24 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
         [{"factor": f.name, "parameter": f.parameter, "label": f.description, "units": f.units,
           "-1": f.low, "0": f.centre, "+1": f.high} for f in c.factors]).set_index("factor")
     report.table(_drop_empty(levels), n("factors"), caption="Factors and levels" + _cite(c, "factors"))
+    _settings_section(report, cal, n)
 
-    report.section("Design and results", 3)
-    _design_section(report, cal, n)
-    _benchmark_section(report, cal, n)
-
-    for response in cal.models:
-        _model_sections(report, cal, response, n)
+    several = len(cal.designs) > 1
+    for design in cal.designs:
+        m = (lambda name, design=design: n(f"{name}_{design.name}")) if several else n
+        report.section("Design and results" + (f" of {design.name}" if several else ""), 3)
+        if several:
+            report.paragraph(f"The runs of {design.name} with the settings fixed for "
+                             f"{'it' if len(design.conditions) == 1 else 'them'} (table above); the model "
+                             "fitted to them is what the calibration of "
+                             f"{'that condition' if len(design.conditions) == 1 else 'those conditions'} solves.")
+        _design_section(report, c, design.table, m)
+        _benchmark_section(report, design.campaign, m)
+        for response in design.models:
+            _model_sections(report, c, design, response, m)
 
     _calibration_sections(report, cal, n)
+    _parameters_section(report, cal, n)
     _loop_sections(report, cal, n)
     _verification_sections(report, cal, n)
     _images_section(report, cal, n)
@@ -171,9 +191,28 @@ def _lab_section(report: HtmlReport, cal: Calibration, n) -> None:
         report.table(sieve, n("sieve"), caption="Particle-size distribution, mass %" + _cite(c, "sieve"))
 
 
-def _design_section(report: HtmlReport, cal: Calibration, n) -> None:
+def _settings_section(report: HtmlReport, cal: Calibration, n) -> None:
+    """Each condition's fixed settings: value and source (campaign file, the campaign whose
+    calibration it takes, or the test's default), when the campaign fixes any per condition."""
+    from demcal.campaign.chain import condition_settings
+
     c = cal.campaign
-    table = cal.table
+    if not c.per_condition:
+        return
+    rows = [{"condition": name, "setting": key, "value": value, "source": source}
+            for name, settings in condition_settings(c).items() for key, (value, source) in settings.items()]
+    report.section("Fixed settings per condition", 3)
+    report.paragraph("The settings each condition's runs keep fixed besides the factors, and where each value "
+                     "comes from: the campaign file ([experiment.settings] for every condition, "
+                     "[conditions.settings] for one), another campaign's calibration (from_campaign, for the "
+                     "condition of the same name), or the virtual test's default. A condition's own settings "
+                     "take precedence over the other campaign's values, which take precedence over "
+                     "[experiment.settings].")
+    report.table(pd.DataFrame(rows).set_index("condition"), n("condition_settings"),
+                 caption="Fixed settings per condition and their sources")
+
+
+def _design_section(report: HtmlReport, c: Campaign, table: pd.DataFrame, n) -> None:
     cols = ["run"] + c.factor_names + [f.parameter for f in c.factors] + c.response_names + ["seed", "status", "wall_s"]
     if c.replicates > 1:
         cols.insert(1, "replicate")
@@ -187,26 +226,27 @@ def _design_section(report: HtmlReport, cal: Calibration, n) -> None:
                          f"total {walls.sum() / 60:.1f} CPU-min.", "small")
 
 
-def _model_sections(report: HtmlReport, cal: Calibration, response: str, n) -> None:
+def _model_sections(report: HtmlReport, c: Campaign, design, response: str, n) -> None:
     """ANOVA (Tables 5, 9), fit statistics, equations, fit summary, reduced model and
-    figures (Figs. 5, 6, 9), built by the statistics helper's report blocks."""
+    figures (Figs. 5, 6, 9) of one design's model, built by the statistics helper's report blocks."""
     from demcal.report.paper import add_model_sections
     from demcal.rsm import Reduction
 
-    c = cal.campaign
-    full = cal.full[response]
-    model = cal.models[response]
-    report.section(f"Response model of {response}", 3)
-    used = ("the reduced model" if cal.removed.get(response) else f"the full {c.model_order} model") + (
+    full = design.full[response]
+    model = design.models[response]
+    several = design.conditions != tuple(c.conditions)
+    report.section(f"Response model of {response}" + (f" ({design.name})" if several else ""), 3)
+    used = ("the reduced model" if design.removed.get(response) else f"the full {c.model_order} model") + (
         f" (backward elimination at alpha = {c.reduce_alpha:g})" if c.reduce_alpha is not None else "")
     report.paragraph(f"{c.model_order.capitalize()} model in coded factors "
                      + ", ".join(f"{f.name} = {f.parameter}" for f in c.factors)
                      + f"; the calibration below solves {used}, and the diagnostics and figures "
                        "are of that model.")
-    reduction = (Reduction(model, tuple(cal.removed.get(response, ()))) if c.reduce_alpha is not None
+    reduction = (Reduction(model, tuple(design.removed.get(response, ()))) if c.reduce_alpha is not None
                  else None)
     add_model_sections(report, full, n(response), surfaces=_surface_pairs(model, len(c.factors)),
-                       reduce_alpha=c.reduce_alpha, level=4, used_by="calibration", reduction=reduction)
+                       reduce_alpha=c.reduce_alpha, level=4, used_by="calibration", reduction=reduction,
+                       run_order=np.flatnonzero(design.table[response].notna().to_numpy()) + 1)
 
 
 def _surface_pairs(model, k: int) -> list[tuple[int, int]]:
@@ -232,6 +272,7 @@ def _surface_pairs(model, k: int) -> list[tuple[int, int]]:
 
 
 def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
+    from demcal.report.diagnostics import add_desirability_sections
     from demcal.report.paper import add_optimization_sections
 
     c = cal.campaign
@@ -304,6 +345,75 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
             title += ": " + "; ".join(substitutes)
         add_optimization_sections(report, result.optimization, n(f"solve_{result.condition.name}"),
                                   title, level=4)
+        add_desirability_sections(report, cal, result, n(f"solve_{result.condition.name}"))
+
+
+def _parameters_section(report: HtmlReport, cal: Calibration, n) -> None:
+    """The calibrated material's complete parameter set per condition, as the material
+    card gives it (:func:`demcal.export.card.build_card`, what ``demcal export`` writes):
+    every value with its unit and its source -- calibrated (a factor), fixed by the
+    campaign, another campaign's calibration, or a default -- plus the derived Young's
+    moduli, the steel of the walls, the particle template and its size distribution."""
+    from demcal.errors import DemcalError
+    from demcal.export.card import build_card
+    from demcal.export.text import number
+
+    c = cal.campaign
+    report.section("Calibrated material: every parameter", 3)
+    try:
+        card = build_card(c, cal.to_dict())
+    except DemcalError as exc:
+        report.note(f"The full parameter set cannot be listed: {exc}")
+        return
+    factors = {f.parameter: f.name for f in c.factors}
+    sources = {"calibrated": "calibrated", "fixed": "fixed by the campaign",
+               "default": f"default of {c.test} ({c.profile})",
+               "demcal default": "demcal default (not a setting of the test)"}
+    several = len(card["conditions"]) > 1
+    rows: dict[str, dict] = {}
+
+    def put(key, unit, condition, value, source):
+        row = rows.setdefault(key, {"parameter": key, "unit": unit})
+        row[condition if several else "value"] = number(value) if isinstance(value, float) else value
+        row[f"{condition} source" if several else "source"] = source
+
+    shape = card["particle"]
+    radii = " + ".join(f"{1e3 * sphere['radius']:g}" for sphere in shape["spheres"])
+    apart = f", centres {1e3 * shape['centre_distance']:g} mm apart" if "centre_distance" in shape else ""
+    sizes = shape["size_distribution"]
+    for condition in card["conditions"]:
+        name, parameters = condition["name"], condition["parameters"]
+        for key, entry in parameters.items():
+            source = sources.get(entry["source"], entry["source"])
+            if entry["source"] == "calibrated" and key in factors:
+                source = f"calibrated (factor {factors[key]})"
+            put(key, entry["unit"], name, entry["value"], source)
+            prefix = key.split(".")[0]
+            if key.endswith(".shear_modulus") and prefix in condition["materials"]:
+                put(f"{prefix}.youngs_modulus", "Pa", name, condition["materials"][prefix]["youngs_modulus"],
+                    "derived: E = 2 G (1 + nu)")
+        if any(k.startswith("wall.") and e["source"] != "demcal default" for k, e in parameters.items()):
+            steel = condition["materials"]["steel"]
+            for prop, unit in (("density", "kg/m3"), ("shear_modulus", "Pa"), ("youngs_modulus", "Pa"),
+                               ("poisson_ratio", "-"), ("yield_strength", "Pa")):
+                put(f"steel.{prop}", unit, name, steel[prop], "demcal's steel (the walls)")
+        shape_source = sources.get(parameters.get("particles.shape", {}).get("source"), "default")
+        put("particle template", "mm", name, f"{shape['shape']}: radii {radii} mm{apart}", shape_source)
+        put("size distribution", "-", name,
+            f"{sizes['kind']} size factor {sizes['scale_min']:g} to {sizes['scale_max']:g} (by {sizes['basis']})",
+            shape_source)
+    report.paragraph("The complete parameter set of the calibrated material, the one `demcal export` writes to "
+                     "the material card: 'calibrated' values are solved from the model (the campaign's factors), "
+                     "'fixed by the campaign' ones are set in the campaign file, and the others are the virtual "
+                     "test's defaults at the campaign's profile; Young's moduli are derived from the shear "
+                     "modulus and Poisson ratio.")
+    columns = ["unit"] + [column for cond in card["conditions"]
+                          for column in ((cond["name"], f"{cond['name']} source") if several else ("value", "source"))]
+    table = pd.DataFrame(list(rows.values())).set_index("parameter")[columns]
+    report.table(_drop_empty(table), n("material_parameters"),
+                 caption=f"{c.title}: calibrated material per condition, every parameter with its unit and source")
+    for warning in card["warnings"]:
+        report.note(warning)
 
 
 def _outside_box(campaign, reference) -> set[str]:
@@ -362,12 +472,12 @@ def _stale(cal: Calibration) -> list[str]:
             if r.condition.name in before and before[r.condition.name] != r.chosen]
 
 
-def _benchmark_section(report: HtmlReport, cal: Calibration, n) -> None:
-    """demcal's benches against the published responses at the same parameter values."""
+def _benchmark_section(report: HtmlReport, c: Campaign, n) -> None:
+    """demcal's benches against the published responses at the same parameter values (the
+    runs with the fixed settings of ``c``, one design's campaign)."""
     from demcal.campaign.store import Store
     from demcal.report import benchmark
 
-    c = cal.campaign
     if c.reference_table is None or not c.store_path.is_file():
         return
     with Store(c.store_path, readonly=True) as store:
@@ -529,9 +639,12 @@ def _img(path: Path, alt: str) -> str:
     return f'<img alt="{html.escape(alt)}" style="max-width:100%" src="data:{mime};base64,{data}">'
 
 
-def _measured_photo(condition, base: Path) -> Path | None:
+def _measured_photo(condition, base: Path):
+    """``(path, photos)``: the condition's lab photo -- its ``photo``, else the first of its
+    sample's photos -- and the lab record's photo settings (region, base line, scale; None
+    for a ``photo`` of the condition), or None when it has none."""
     if condition.photo is not None:
-        return condition.photo
+        return condition.photo, None
     record = condition.sample
     photos = getattr(record, "repose_photos", None) if record is not None else None
     if photos is not None:
@@ -539,49 +652,87 @@ def _measured_photo(condition, base: Path) -> Path | None:
             paths = photos.paths(base)
         except Exception:  # a missing photo is reported by the lab check, not here
             return None
-        return Path(paths[0]) if paths else None
+        return (Path(paths[0]), photos) if paths else None
     return None
 
 
+#: Columns of the images table: key -> (heading for heaps, heading for other tests, what the
+#: caption says the column shows for heaps, for other tests).
+_IMAGE_COLUMNS = {
+    "3d": ("simulated heap in 3-D", "simulated, in 3-D",
+           "the run's final spheres in 3-D, each to scale and coloured by its height",
+           "the run's final spheres in 3-D"),
+    "picture": ("simulated heap as measured: silhouette and fitted flanks", "simulated: the run's measurement picture",
+                "the side view of the heap demcal measured (its silhouette), with the flank lines fitted to it",
+                "the picture the run's measurement wrote"),
+    "photo": ("lab photo as measured: outline and fitted flanks", "lab photo as measured",
+              "the condition's lab photo with the outline, base line and flank lines `demcal measure` finds in "
+              "it, and their angles",
+              "the condition's lab photo as `demcal measure` measures it"),
+}
+
+
 def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
-    """Simulated heap (verification run artifact) next to the measured photo (Fig. 7)."""
+    """Per condition, side by side: the final spheres of its verification run in 3-D
+    (:func:`demcal.report.heaps.heap_3d_figure`), the run's measurement picture (for a
+    heap, the silhouette with the fitted flank lines) and the lab photo with the outline
+    and flank lines that ``demcal measure`` finds in it
+    (:func:`demcal.report.heaps.lab_photo_figure`)."""
+    from demcal.errors import DemcalError
+    from demcal.io.spheres import read_spheres
+    from demcal.report.heaps import heap_3d_figure, lab_photo_figure
+
     c = cal.campaign
-    cells = []
+    rows = []
     heaps = False
     for result in cal.conditions:
-        simulated = None
-        for record in result.verification:
-            if record.status != "done" or not record.artifacts_dir:
-                continue
-            folder = c.workdir / "runs" / record.artifacts_dir
-            for name, rel in record.result.get("artifacts", {}).items():
-                path = folder / rel
-                if path.suffix.lower() in (".png", ".jpg", ".jpeg") and path.is_file():
-                    simulated = (name, path)
-                    break
-            if simulated:
-                break
+        name = result.condition.name
+        record = next((r for r in result.verification if r.status == "done" and r.artifacts_dir), None)
+        folder = c.workdir / "runs" / record.artifacts_dir if record is not None else None
+        artifacts = {key: folder / rel for key, rel in (record.result.get("artifacts", {}) if record else {}).items()}
+        cells = {}
+        spheres = artifacts.get("heap_spheres")
+        if spheres is not None and spheres.is_file():
+            try:
+                figure = heap_3d_figure(read_spheres(spheres),
+                                        title=f"{name}: verification run at the calibrated parameters")
+                cells["3d"] = report.figure_html(figure, n(f"heap_3d_{name}"), f"simulated heap of {name} in 3-D")
+            except DemcalError as exc:
+                cells["3d"] = f'<p class="small">{html.escape(str(exc))}</p>'
+        picture = next(((key, path) for key, path in artifacts.items()
+                        if path.suffix.lower() in (".png", ".jpg", ".jpeg") and path.is_file()), None)
+        if picture is not None:
+            heaps = heaps or picture[0].startswith("heap")
+            cells["picture"] = _img(picture[1], f"simulated {name}")
         measured = _measured_photo(result.condition, c.path.parent)
-        if simulated is None and measured is None:
-            continue
-        heaps = heaps or (simulated is not None and simulated[0].startswith("heap"))
-        sim_html = _img(simulated[1], f"simulated {result.condition.name}") if simulated else "<p>no image</p>"
-        mea_html = (_img(measured, f"measured {result.condition.name}") if measured and measured.is_file()
-                    else "<p class=\"small\">no lab photo in the campaign</p>")
-        cells.append(
-            f"<tr><td class=\"t\">{html.escape(result.condition.name)}</td>"
-            f"<td class=\"t\" style=\"width:45%\">{sim_html}</td><td class=\"t\" style=\"width:45%\">{mea_html}</td></tr>")
-    if cells:
-        if heaps:
-            title, caption = ("Heap images: simulated and measured",
-                              "Simulated (verification run) and measured heap" + _cite(c, "images"))
-        else:
-            title, caption = ("Verification runs: what was measured",
-                              "Simulated verification run (its measurement picture) and the lab photo")
-        report.section(title, 3)
-        report.raw(f"<table><caption>{caption}</caption>"
-                   "<thead><tr><th class=\"t\">condition</th><th class=\"t\">simulated</th>"
-                   "<th class=\"t\">measured</th></tr></thead><tbody>" + "".join(cells) + "</tbody></table>")
+        if measured is not None and measured[0].is_file():
+            try:
+                cells["photo"] = report.figure_html(lab_photo_figure(*measured), n(f"lab_photo_{name}"),
+                                                    f"lab photo of {name} as measured")
+            except DemcalError as exc:  # shown as it is, with the reason it does not measure
+                cells["photo"] = (_img(measured[0], f"lab photo of {name}")
+                                  + f'<p class="small">not measured: {html.escape(str(exc))}</p>')
+        if cells:
+            chosen = ", ".join(f"{key} = {value:g}" for key, value in result.chosen.items())
+            rows.append((f'{html.escape(name)}<br><span class="small">{html.escape(chosen)}</span>', cells))
+    if not rows:
+        return
+    shown = [key for key in _IMAGE_COLUMNS if any(key in cells for _, cells in rows)]
+    caption = (f"{c.title}: the verification run of each condition at its calibrated parameters (virtual test "
+               f"{c.test}, profile {c.profile})" + (" beside its lab photo" if "photo" in shown else "")
+               + _cite(c, "images") + ". " + ("Left to right: " if len(shown) > 1 else "")
+               + "; ".join(_IMAGE_COLUMNS[key][2 if heaps else 3] for key in shown) + ".")
+    width = f"{90 // len(shown)}%"
+    body = "".join(
+        f'<tr><td class="t">{label}</td>'
+        + "".join(f'<td class="t" style="width:{width}">{cells.get(key, "<p class=small>no image</p>")}</td>'
+                  for key in shown) + "</tr>"
+        for label, cells in rows)
+    report.section("Heap images: simulated and measured" if heaps else "Verification runs: what was measured", 3)
+    report.raw(f"<table><caption>{html.escape(caption)}</caption><thead><tr><th class=\"t\">condition</th>"
+               + "".join(f'<th class="t">{html.escape(_IMAGE_COLUMNS[key][0 if heaps else 1])}</th>'
+                         for key in shown)
+               + f"</tr></thead><tbody>{body}</tbody></table>")
 
 
 # --------------------------------------------------------------------------- paper

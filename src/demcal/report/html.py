@@ -169,18 +169,31 @@ class HtmlReport:
     def figure(self, fig, name: str, caption: str | None = None, write_files: bool = True) -> str:
         """A matplotlib figure embedded as base64 PNG (at ``dpi``); also saved as PNG (at
         ``file_dpi``) and SVG files."""
+        name, img = self._embed(fig, name, None, self.figure_formats if write_files else ())
+        cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
+        self.blocks.append(f"<figure>{img}{cap}</figure>")
+        return name
+
+    def figure_html(self, fig, name: str, alt: str) -> str:
+        """The ``<img>`` of a matplotlib figure embedded as :meth:`figure` does, for a caller
+        that lays figures out itself (side by side in a table); saved as a PNG file only (at
+        ``file_dpi``, when the report writes figure files): such figures are pictures -- a
+        photo, thousands of spheres -- that a vector file would only make large."""
+        return self._embed(fig, name, alt, tuple(f for f in self.figure_formats if f == "png"))[1]
+
+    def _embed(self, fig, name: str, alt: str | None, formats) -> tuple[str, str]:
+        """The figure's unique name and its ``<img>`` (base64 PNG at ``dpi``; ``alt``
+        default that name); also ``figures/<name>.<format>`` at ``file_dpi`` for each of
+        ``formats``."""
         name = self._unique(name)
         png = figure_png_bytes(fig, self.dpi)
-        if write_files and self.figure_formats:
+        if formats:
             fdir = self.out_dir / "figures"
             fdir.mkdir(exist_ok=True)
-            for fmt in self.figure_formats:
+            for fmt in formats:
                 write_atomic(fdir / f"{name}.{fmt}", _figure_bytes(fig, fmt, self.file_dpi))
         data = base64.b64encode(png).decode("ascii")
-        cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
-        self.blocks.append(f'<figure><img alt="{html.escape(name)}" '
-                           f'src="data:image/png;base64,{data}">{cap}</figure>')
-        return name
+        return name, f'<img alt="{html.escape(alt or name)}" src="data:image/png;base64,{data}">'
 
     # -- output -------------------------------------------------------------------
     def to_html(self) -> str:
