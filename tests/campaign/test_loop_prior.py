@@ -40,3 +40,14 @@ def test_stored_priors_apply_to_the_material_settings_only():
 
     counted = dataclasses.replace(campaign, settings={**campaign.settings, "particles.count": 500})
     assert stored_priors(counted, "quick", "paper") == {}
+
+
+def test_replicates_needed_is_the_whole_batch_by_student_t():
+    from scipy import stats
+
+    from demcal.campaign.loop import replicates_needed
+
+    m = replicates_needed(sd=2.5, df=2, n=3, lab_sd=2.1, cap=30)
+    assert stats.t.ppf(0.975, 2 + m - 3) * 2.5 / m ** 0.5 < 2.1  # enough ...
+    assert stats.t.ppf(0.975, 2 + m - 4) * 2.5 / (m - 1) ** 0.5 >= 2.1  # ... and no more
+    assert replicates_needed(sd=10.0, df=2, n=3, lab_sd=0.1, cap=12) == 12

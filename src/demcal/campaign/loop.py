@@ -525,7 +525,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             need = max(replicates + 1, first_replicates)
             for t, mean, half, inside, narrow, sd in verdict:
                 if not narrow and t.sd and np.isfinite(sd):
-                    need = max(need, math.ceil((1.96 * sd / t.sd) ** 2) + 1)
+                    df = noise.get(t.response, (float("nan"), 0))[1]
+                    need = max(need, replicates_needed(sd, df, replicates, t.sd, cfg.max_replicates))
             replicates = min(cfg.max_replicates, need)
             hold = True
             continue
@@ -535,6 +536,19 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             return stop(ITERATIONS, f"{t.response}: the production mean {mean:.2f} still misses "
                         f"{t.mean:g} ± {t.sd:g} after {cfg.iterations} solves on the corrected surface; "
                         f"raise [calibration] iterations", **state)
+
+
+def replicates_needed(sd: float, df: int, n: int, lab_sd: float, cap: int) -> int:
+    """The fewest replicates ``m > n`` whose 95 % half-width, Student t with the pooled
+    ``df`` grown by the ``m - n`` new runs, falls below ``lab_sd`` at the current ``sd``
+    (``cap`` if none up to it does): the whole batch at once, so the runs go in parallel
+    instead of one per round."""
+    from scipy import stats
+
+    for m in range(n + 1, cap + 1):
+        if stats.t.ppf(0.975, df + m - n) * sd / math.sqrt(m) < lab_sd:
+            return m
+    return cap
 
 
 def _production_specs(campaign, condition, ci, chosen, production, replicates) -> list[RunSpec]:

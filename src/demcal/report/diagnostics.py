@@ -405,8 +405,12 @@ def overlay_figure(models: dict, optimization, windows: dict, i: int, j: int, po
     x0, y0 = float(fi.to_actual(point[i])), float(fj.to_actual(point[j]))
     ax.scatter([x0], [y0], marker="*", s=140, color="tab:red", edgecolor="k", linewidth=0.4, zorder=5,
                clip_on=False)
+    # the label on the side of the star that faces the plot's middle, so it is never cut off
+    (xl, xh), (yl, yh) = ax.get_xlim(), ax.get_ylim()
+    right, up = x0 < 0.5 * (xl + xh), y0 < 0.5 * (yl + yh)
     ax.annotate(", ".join(f"{r} {v:.3g}" for r, v in predicted.items()), (x0, y0), textcoords="offset points",
-                xytext=(6, 6), fontsize=7, zorder=6, bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.5",
+                xytext=(6 if right else -6, 6 if up else -6), ha="left" if right else "right",
+                va="bottom" if up else "top", fontsize=7, zorder=6, bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.5",
                                                                 lw=0.5))
     _short_ticks(ax)
     ax.set_xlabel(_factor_label(fi))

@@ -77,8 +77,13 @@ def term_label(name: str) -> str:
 
 
 def display_table(df: pd.DataFrame) -> pd.DataFrame:
-    """``df`` with Design-Expert headers and term labels; values untouched."""
-    out = df.rename(columns=lambda c: HEADERS.get(str(c), c))
+    """``df`` with Design-Expert headers and term labels; values untouched.
+
+    ``F`` becomes "F-value" only beside another statistic's column: a factor named F (or
+    any one-letter factor) in a design table keeps its name.
+    """
+    stats = any(str(c) in HEADERS and len(str(c)) > 1 for c in df.columns)
+    out = df.rename(columns=lambda c: HEADERS.get(str(c), c) if stats or len(str(c)) > 1 else c)
     name = str(df.index.name or "")
     if name.lower() in _TERM_INDEXES:
         out.index = [term_label(i) for i in df.index]
