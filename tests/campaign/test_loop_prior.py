@@ -51,3 +51,13 @@ def test_replicates_needed_is_the_whole_batch_by_student_t():
     assert stats.t.ppf(0.975, 2 + m - 3) * 2.5 / m ** 0.5 < 2.1  # enough ...
     assert stats.t.ppf(0.975, 2 + m - 4) * 2.5 / (m - 1) ** 0.5 >= 2.1  # ... and no more
     assert replicates_needed(sd=10.0, df=2, n=3, lab_sd=0.1, cap=12) == 12
+
+
+def test_a_box_moves_only_when_it_misses_the_middle_half_of_the_lab_window():
+    from demcal.campaign.loop import out_of_box
+
+    assert not out_of_box(25.42, 2.6, 18.0, 24.2)  # reaches 24.2 >= 25.42 - 1.3
+    assert out_of_box(25.42, 2.6, 18.0, 24.0)  # 24.0 < 24.12
+    assert out_of_box(30.46, 3.2, 18.0, 26.35)
+    assert not out_of_box(20.0, 2.0, 20.9, 30.0) and out_of_box(20.0, 2.0, 21.1, 30.0)  # from above
+    assert out_of_box(25.0, None, 10.0, 24.99) and not out_of_box(25.0, None, 10.0, 25.0)  # no sd: the mean
