@@ -1,11 +1,11 @@
-"""Particle files (``demcal.dem.io``): a packing written and read back is the same
+"""Particle files (``demcal.io.particles``): a packing written and read back is the same
 packing, bitwise where the file holds the numbers (positions, velocities, sizes)."""
 
 import numpy as np
 import pytest
 
 from demcal.dem import Simulation
-from demcal.dem.io import COLUMNS, load_particles, save_particles
+from demcal.io.particles import COLUMNS, load_particles, save_particles
 from demcal.errors import ConfigError, DataError
 from demcal.geometry import Plane, WallSet
 from demcal.particles.materials import Interaction

@@ -219,8 +219,7 @@ class Incline(C.BenchExperiment):
 
         # 2. tilt gravity at a constant rate; the container follows the material
         t0 = sim.time
-        mass = sim.state.masses.copy()
-        weight = float(mass.sum()) * C.G
+        weight = float(sim.state.masses.sum()) * C.G
         follow = container is not None and s["incline.container"] == "follow"
         rigid = container is not None and s["incline.container"] == "rigid"
         v_ref = float(s["incline.container_yield"])
@@ -265,8 +264,8 @@ class Incline(C.BenchExperiment):
                 push_ratio.append(float(forces["container"][0][0]) / weight)
             if moved_at is None and _mean_x(sim) - x0 >= visible:
                 moved_at = angles[-1]
-            if follow:
-                fx = float(sim.wall_forces()["container"][0][0])
+            if follow:  # (a container: not a block, so `forces` is this sample's)
+                fx = float(forces["container"][0][0])
                 xc = motion.offset[0] + motion.velocity[0] * steps * sim.dt
                 vc = float(np.clip(v + v_ref * fx / weight, -0.5, 0.5))
                 motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))

@@ -550,14 +550,10 @@ def _close_loops(campaign: Campaign, designs: list[DesignFit], notes: list[str],
 
 def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_range) -> ConditionResult:
     """The ConditionResult of a finished (or stopped) loop."""
-    from demcal.campaign.loop import CorrectedSurface
-
     boxed = loop.box.campaign(campaign)
     by_name = {f.name: f for f in boxed.factors}
     names = campaign.factor_names
-    box0 = loop.boxes[0]
-    corrected = {r: CorrectedSurface(loop.models[r], loop.discrepancy[r], loop.box, box0) for r in loop.models
-                 if r in loop.discrepancy}
+    corrected = loop.corrected()
     best, optimization, cond_notes = loop.best, loop.optimization, []
     if best is None:  # stopped before a solve: the box's nearest point to the target
         best, optimization, cond_notes = solve_condition(boxed, corrected or loop.models, condition)

@@ -342,6 +342,13 @@ class LoopResult:
     notes: list[str]
     cheap_target: dict[str, float]
 
+    def corrected(self) -> dict:
+        """Response -> the final box's model plus its production discrepancy
+        (:class:`CorrectedSurface`), for the responses that have a discrepancy."""
+        box0 = self.boxes[0]
+        return {r: CorrectedSurface(m, self.discrepancy[r], self.box, box0) for r, m in self.models.items()
+                if r in self.discrepancy}
+
     def runs_by_stage(self) -> dict[str, int]:
         """Runs each stage asked for ("path", "design", "production"), done before or now."""
         out: dict[str, int] = {}

@@ -31,7 +31,7 @@ impact_speed=2.0, skin=None, domain=None, threads=None)``
   (a ramp or a constant-rate rotation of gravity, :mod:`demcal.dem.gravity`, set
   once per window of steps within a stated tolerance)
 * ``sim.save_checkpoint(path)``, ``sim.load_checkpoint(path)`` (bit-identical restart);
-  ``demcal.dem.io.save_particles(path, sim)`` / ``load_particles(path)`` (a CSV file
+  ``demcal.io.particles.save_particles(path, sim)`` / ``load_particles(path)`` (a CSV file
   of the particles, to start another simulation from a packing)
 
 Contact models (``contact_model``, default ``"hertz_mindlin"``): ``"hertz_mindlin"``

@@ -273,11 +273,7 @@ def solved_models(cal, result) -> dict:
         name = result.condition.name
         designs = getattr(cal, "designs", None) or []
         return dict(next((d.models for d in designs if name in {c.name for c in d.conditions}), cal.models))
-    from demcal.campaign.loop import CorrectedSurface
-
-    box0 = loop.boxes[0]
-    return {r: CorrectedSurface(m, loop.discrepancy[r], loop.box, box0) if r in loop.discrepancy else m
-            for r, m in loop.models.items()}
+    return {**loop.models, **loop.corrected()}
 
 
 def _windows(result, optimization) -> dict:

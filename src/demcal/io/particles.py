@@ -137,9 +137,7 @@ def save_particles(path, source) -> Path:
     From a simulation the file names templates and materials; from a state it gives
     their indices.
     """
-    from .simulation import Simulation
-
-    if isinstance(source, Simulation):
+    if hasattr(source, "state"):  # a simulation (io never imports the engine: dem imports io)
         st = source.state
         tnames = [getattr(t, "name", str(k)) for k, t in enumerate(source.templates)]
         mnames = [m.name for m in source.materials]
