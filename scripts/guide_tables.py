@@ -74,7 +74,8 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                "(default: the setting's own range); must not exceed `low`.",
     ("factors[]", "hard_high"): "optional upper limit of the same kind; must not be below `high`.",
     ("design", "type"): "`box-behnken` (default; alias `bbd`), `central-composite` (`ccd`), "
-                        "`full-factorial` (`factorial`), `fractional-factorial`, `plackett-burman`.",
+                        "`full-factorial` (`factorial`), `fractional-factorial` (`fractional`), "
+                        "`plackett-burman`; `demcal design` takes the same names.",
     ("design", "center"): "centre points added to the design; default 5 for Box-Behnken, 6 for a "
                           "central composite, none for the others.",
     ("design", "variant"): "central composite only: `circumscribed` (default), `inscribed` or "
@@ -82,6 +83,8 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("design", "alpha"): "central composite only: `rotatable` (default), `orthogonal` or a number.",
     ("design", "fraction"): "central composite or fractional factorial: the number p of "
                             "generators of the 2^(k-p) factorial part (default 0 and 1).",
+    ("design", "generators"): "fractional factorial only: its generators, e.g. `\"D=ABC,E=ABD\"` or "
+                              "`[\"D=ABC\", \"E=ABD\"]` (default: the standard ones for `fraction`).",
     ("design", "levels"): "full factorial only: levels per factor (default 2).",
     ("design", "runs"): "Plackett-Burman only: number of runs (default: the design's own for k factors).",
     ("responses[]", "name"): "**required**. A response the test measures (its `responses:` line "
@@ -239,7 +242,7 @@ def _md_table(header, rows) -> str:
 
 def tables() -> dict[str, str]:
     """Every generated block, by marker name. Raises ``RuntimeError`` on drift."""
-    from demcal.bench.commands import settings_rows
+    from demcal.cli.bench import settings_rows
     from demcal.bench.registry import get_experiment, names
 
     # demcal's own tests only: plug-ins registered in this process (tests' doubles) are not

@@ -82,7 +82,7 @@ def test_any_file_system_error_is_one_sentence(capsys, monkeypatch, exc, words):
     def fail(args):
         raise exc
 
-    monkeypatch.setattr("demcal.campaign.commands._demo", fail)
+    monkeypatch.setattr("demcal.cli.campaign._demo", fail)
     assert main(["demo"]) == 2
     err = _one_sentence(capsys)
     assert words in err, err
@@ -92,7 +92,7 @@ def test_keyboard_interrupt_is_still_its_own_message(capsys, monkeypatch):
     def stop(args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("demcal.campaign.commands._demo", stop)
+    monkeypatch.setattr("demcal.cli.campaign._demo", stop)
     assert main(["demo"]) == 130
     assert "interrupted" in capsys.readouterr().err
 

@@ -11,11 +11,11 @@ its imports of demcal modules are sorted in two kinds:
 
 The eager graph must have no cycle, neither between modules nor between top-level
 packages (``demcal.campaign``, ``demcal.report``, ...; a top-level module such as
-``demcal._cliutil`` counts as its own package). The package graph with the deferred
-imports added still has cycles, all through the ``commands.py`` modules and the
-campaign/report pair; they are listed in :data:`DEFERRED_PACKAGE_CYCLES`, an allow-list
-that may only shrink: a new cycle fails, and so does one that disappears while still
-listed.
+``demcal.errors`` counts as its own package). The package graph with the deferred
+imports added must have none either: the command line (``demcal.cli``) sits above every
+subsystem and no subsystem imports it. :data:`DEFERRED_PACKAGE_CYCLES` is the allow-list
+of package cycles through deferred imports; it is empty and may only shrink: a new
+cycle fails, and so does one that disappears while still listed.
 """
 
 from __future__ import annotations
@@ -31,19 +31,13 @@ from scipy.sparse.csgraph import connected_components
 SRC = Path(__file__).resolve().parents[1] / "src" / "demcal"
 
 #: Strongly connected sets of top-level packages when deferred (in-function) imports are
-#: counted as well. Each goes through a CLI ``commands.py`` module or the campaign <->
-#: report/export pair; removing them needs the commands moved into a ``cli/`` package
-#: (issue 18 item 7, not done). Remove an entry when its cycle is gone; never add one.
-DEFERRED_PACKAGE_CYCLES = [
-    # _cliutil -> doe.factors, rsm.data (shared CLI readers); doe.commands, rsm.commands
-    # -> _cliutil; doe.commands -> rsm.fit (``demcal design --augment``).
-    {"demcal._cliutil", "demcal.doe", "demcal.rsm"},
-    # campaign.commands/demo -> report.campaign_report; report -> campaign (eager);
-    # export.card -> campaign.chain (eager), campaign.chain -> export.card;
-    # optimize.commands -> report.figures; report.paper -> optimize (eager);
-    # campaign.calibrate/loop -> optimize.
-    {"demcal.campaign", "demcal.export", "demcal.optimize", "demcal.report"},
-]
+#: counted as well. Empty since the commands moved into the ``cli/`` package, the demo
+#: workflow with them, and the calibration.json reader into ``campaign.chain`` (issue 18
+#: item 7). Remove an entry when its cycle is gone; never add one.
+DEFERRED_PACKAGE_CYCLES: list[set[str]] = []
+
+#: The only modules outside ``demcal.cli`` that may import it: the entry points.
+CLI_ENTRY_POINTS = {"demcal.__main__"}
 
 
 def _modules() -> dict[str, Path]:
@@ -198,14 +192,15 @@ def _describe(graph: dict[str, set[str]], cycles: list[set[str]]) -> str:
 
 def test_the_parser_sees_both_kinds_of_import():
     # known edges, so that a parser that reads nothing cannot pass the tests below
-    assert "demcal.measure.lab" in IMPORTS["demcal.measure.photo"][0]
+    assert "demcal.measure.summary" in IMPORTS["demcal.measure.photo"][0]
     assert "demcal.measure.photo" in IMPORTS["demcal.measure.lab"][1]
     assert "demcal.campaign.config" in IMPORTS["demcal.campaign.runner"][0]
-    assert "demcal.campaign.runner" in IMPORTS["demcal.campaign.config"][1]
+    assert "demcal.campaign.executors" in IMPORTS["demcal.campaign.config"][1]
     assert "demcal.dem.simulation" in IMPORTS["demcal.dem"][0]        # relative import
     assert "demcal.rsm.fit" in IMPORTS["demcal.report.paper"][0]      # lazy_exports name
-    assert "demcal.rsm.fit" in IMPORTS["demcal.rsm.commands"][1]      # TYPE_CHECKING
-    assert "demcal.doe.design" in IMPORTS["demcal.doe.commands"][1]
+    assert "demcal.rsm.fit" in IMPORTS["demcal.cli.rsm"][1]           # TYPE_CHECKING
+    assert "demcal.doe.design" in IMPORTS["demcal.cli.doe"][1]
+    assert "demcal.cli" in IMPORTS["demcal.__main__"][0]
 
 
 def test_no_cycle_between_modules_at_import_time():
@@ -233,3 +228,11 @@ def test_package_cycles_through_deferred_imports_only_shrink():
     assert not gone, (f"listed package cycle(s) no longer found: {[sorted(c) for c in gone]}; "
                       "update DEFERRED_PACKAGE_CYCLES (found now:\n"
                       + _describe(graph, found) + ")")
+
+
+def test_no_subsystem_imports_the_command_line():
+    upward = sorted(f"{module} -> {target}" for module, (eager, late) in IMPORTS.items()
+                    if _package(module) != "demcal.cli" and module not in CLI_ENTRY_POINTS
+                    for target in eager | late if _package(target) == "demcal.cli")
+    assert not upward, ("the command line (demcal.cli) is the top layer; move what these "
+                        "modules need out of it:\n  " + "\n  ".join(upward))

@@ -260,3 +260,24 @@ def test_report_captions_are_checked(campaign_file):
     assert load_campaign(campaign_file()).captions == {}
     with pytest.raises(ConfigError, match=r"unknown caption 'factor' in \[report\] captions; did you mean 'factors'\?"):
         load_campaign(campaign_file(replace={"[executor]": '[report.captions]\nfactor = "paper Table 3"\n\n[executor]'}))
+
+
+@pytest.mark.parametrize("new, runs", [('type = "fractional"\ngenerators = ["D=ABC"]', 8),
+                                       ('type = "fractional-factorial"\ngenerators = "D=-ABC"\ncenter = 2', 10),
+                                       ('type = "ccd"\nfraction = 1\nvariant = "inscribed"', 22),
+                                       ('type = "bbd"', 29)])
+def test_design_kinds_and_options_of_the_catalogue(campaign_file, new, runs):
+    """[design] takes every spelling and option of demcal.doe.catalog, as `demcal design` does."""
+    from demcal.campaign.runner import plan_design
+
+    campaign = load_campaign(campaign_file(replace={'type = "box-behnken"\ncenter = 5': new}))
+    assert plan_design(campaign).coded.shape == (runs, 4)
+
+
+def test_design_option_of_another_kind_is_one_sentence(campaign_file):
+    path = campaign_file(replace={'type = "box-behnken"\ncenter = 5': 'type = "ccd"\ngenerators = "C=AB"'})
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    message = str(info.value)
+    assert message.startswith("campaign.toml line ") and "\n" not in message, message
+    assert "option 'generators' does not apply to a central-composite design" in message, message

@@ -12,7 +12,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "residual-film-soi
 
 
 def test_demo_runs_calibrates_and_reports(tmp_path, monkeypatch, capsys):
-    import demcal.campaign.demo as demo
+    import demcal.cli.demo as demo
     from demcal.cli import main
 
     source = tmp_path / "examples"

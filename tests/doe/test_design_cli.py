@@ -94,3 +94,26 @@ def test_design_file_round_trip_through_analyze(tmp_path, capsys):
     coefs = json.loads(capsys.readouterr().out)["coefficients"]
     assert list(coefs)[:4] == ["Intercept", "e", "mu", "g"]
     assert coefs["e"] == pytest.approx(2.0, abs=0.02) and coefs["e*g"] == pytest.approx(0.5, abs=0.02)
+
+
+def test_design_cli_takes_every_spelling_and_the_ccd_fraction(capsys):
+    """The catalogue's spellings and options (demcal.doe.catalog), as campaigns take them."""
+    for kind in ("bbd", "central-composite", "full-factorial", "fractional-factorial"):
+        assert main(["design", kind, "-k", "3"]) == 0, kind
+        capsys.readouterr()
+    # a half-fraction factorial part: 8 + 2 * 4 axial + 6 centre runs
+    assert main(["design", "ccd", "-k", "4", "--fraction", "1"]) == 0
+    assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 22
+    # a fractional factorial without --fraction or --generators is a half fraction
+    assert main(["design", "fractional", "-k", "4"]) == 0
+    assert len(capsys.readouterr().out.strip().splitlines()) == 1 + 8
+
+
+def test_design_cli_unknown_kind_is_one_sentence(capsys):
+    assert main(["design", "box-benken", "-k", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err == "demcal: error: unknown design type 'box-benken'; did you mean 'box-behnken'?\n"
+    assert main(["design", "latin-square", "-k", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("demcal: error: unknown design type 'latin-square'; choose one of: ")
+    assert "steepest-ascent" in err and err.count("\n") == 1

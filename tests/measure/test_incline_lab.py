@@ -5,7 +5,8 @@ import pytest
 
 from demcal.errors import ConfigError, DataError
 from demcal.measure.incline import measure_incline, sliding_angle
-from demcal.measure.lab import LabRecord, SieveTable, paper_records, resolve_targets, summarize
+from demcal.measure.lab import LabRecord, SieveTable, paper_records, resolve_targets
+from demcal.measure.summary import summarize
 
 
 def test_sliding_angle_is_arcsin_h_over_l():

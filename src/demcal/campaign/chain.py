@@ -20,7 +20,10 @@ stored runs are never reused across different fixed settings.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
+from pathlib import Path
 from typing import Any, Mapping
 
 from demcal.campaign.config import Campaign, Upstream
@@ -34,6 +37,40 @@ SOURCE_DEFAULT = "default"
 def upstream_source(upstream: Upstream) -> str:
     """``campaign repose.toml, calibrated``: the source of a value taken from ``upstream``."""
     return f"campaign {upstream.path.name}, calibrated"
+
+
+def calibration_path(campaign) -> Path:
+    """Where ``demcal calibrate`` writes its result for ``campaign``."""
+    return Path(campaign.workdir) / "calibration.json"
+
+
+def read_calibration(campaign) -> tuple[dict, Path, str]:
+    """The parsed calibration.json of ``campaign``, its path and its SHA-256 (what a
+    chained campaign and the material card, :mod:`demcal.export.card`, read).
+
+    Raises
+    ------
+    DataError
+        There is none yet, or it is not a JSON object: one sentence saying to run
+        ``demcal calibrate`` first.
+    """
+    path = calibration_path(campaign)
+    run = f"run `demcal calibrate {campaign.path}` first"
+    try:
+        blob = path.read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{campaign.path.name} has no calibration yet ({path} does not exist); "
+                        f"{run}.") from None
+    try:
+        data = json.loads(blob.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        reason = str(exc).split("\n")[0].rstrip(".")
+        raise DataError(f"{path} is not valid JSON ({reason}); run `demcal calibrate "
+                        f"{campaign.path}` again.") from None
+    if not isinstance(data, dict) or not isinstance(data.get("conditions"), list):
+        raise DataError(f"{path} holds no calibrated conditions; run `demcal calibrate "
+                        f"{campaign.path}` again.")
+    return data, path, hashlib.sha256(blob).hexdigest()
 
 
 def resolve_chain(campaign: Campaign) -> Campaign:
@@ -52,7 +89,6 @@ def resolve_chain(campaign: Campaign) -> Campaign:
     if all(c.upstream is None or c.upstream.values is not None for c in campaign.conditions):
         return campaign
     from demcal.bench.registry import get_experiment, resolve_settings
-    from demcal.export.card import read_calibration
 
     experiment = get_experiment(campaign.test)
     table = experiment.settings(campaign.profile)

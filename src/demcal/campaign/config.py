@@ -15,7 +15,7 @@ example)::
     [campaign]      name, description, workdir, lab (a TOML file of lab records), from_campaign
     [experiment]    test, profile, plugins, [experiment.settings] KEY = VALUE
     [[factors]]     name, parameter, low, high, label, unit, hard_low, hard_high
-    [design]        type, center, variant, alpha, fraction, levels, runs
+    [design]        type, center, variant, alpha, fraction, generators, levels, runs
     [[responses]]   name, label, unit
     [runs]          seed, replicates
     [model]         order, reduce_alpha
@@ -78,7 +78,7 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "campaign": ("name", "description", "workdir", "lab", "from_campaign"),
     "experiment": ("test", "profile", "plugins", "settings"),
     "factors[]": ("name", "parameter", "low", "high", "label", "unit", "hard_low", "hard_high"),
-    "design": ("type", "center", "variant", "alpha", "fraction", "levels", "runs"),
+    "design": ("type", "center", "variant", "alpha", "fraction", "generators", "levels", "runs"),
     "responses[]": ("name", "label", "unit"),
     "runs": ("seed", "replicates"),
     "model": ("order", "reduce_alpha"),
@@ -173,9 +173,19 @@ class Condition:
 
 @dataclass(frozen=True)
 class DesignConfig:
+    """``[design]``: a design kind (any spelling of :data:`demcal.doe.catalog.DESIGN_NAMES`),
+    its centre points (None: the kind's default) and its other options."""
+
     type: str = "box-behnken"
     center: int | None = None
     options: Mapping[str, Any] = field(default_factory=dict)
+
+    def matrix(self, k: int):
+        """The coded ``(runs, k)`` matrix, in standard order
+        (:func:`demcal.doe.catalog.design_matrix`)."""
+        from demcal.doe.catalog import design_matrix
+
+        return design_matrix(self.type, k, center=self.center, **self.options)
 
 
 @dataclass(frozen=True)
@@ -806,11 +816,9 @@ class _Loader:
             center = self.integer(data, "center", where, 0, 0)
         options = {key: value for key, value in data.items() if key not in ("type", "center")}
         try:
-            from demcal.campaign.runner import design_matrix
-
             # without the given centre points first, so that a huge `center` is refused
             # by its run count before any centre row is built
-            runs = design_matrix(DesignConfig(kind, None if center is None else 0, options), k).shape[0]
+            runs = DesignConfig(kind, None if center is None else 0, options).matrix(k).shape[0]
         except ConfigError as exc:
             raise self.error(where + ("type",), str(exc)) from None
         if center:

@@ -33,75 +33,12 @@ import numpy as np
 import pandas as pd
 
 from demcal._checks import significant
-from demcal.campaign.config import Campaign, DesignConfig
+from demcal.campaign.config import Campaign
 from demcal.campaign.store import RunRecord, RunSpec, Store, StoreError, temp_name
 from demcal.errors import ConfigError, DataError
 
 #: Seconds between heartbeats of a runner's claims (stale after ``heartbeat_timeout_s``).
 HEARTBEAT_S = 5.0
-
-#: ``[design] type`` names and their aliases.
-DESIGN_TYPES = {
-    "box-behnken": "box-behnken", "bbd": "box-behnken",
-    "central-composite": "central-composite", "ccd": "central-composite",
-    "full-factorial": "full-factorial", "factorial": "full-factorial",
-    "fractional-factorial": "fractional-factorial",
-    "plackett-burman": "plackett-burman",
-}
-
-
-def _whole(options: dict, key: str, default: int, minimum: int) -> int:
-    """A ``[design]`` option that counts something: a whole number >= ``minimum``."""
-    value = options.get(key, default)
-    ok = (isinstance(value, (int, float)) and not isinstance(value, bool)
-          and float(value).is_integer() and value >= minimum)
-    if not ok:
-        raise ConfigError(f"[design] option '{key}' must be a whole number of at least "
-                          f"{minimum}, got {value!r}; give e.g. {key} = {max(default, minimum)}.")
-    return int(value)
-
-
-def design_matrix(design: DesignConfig, k: int) -> np.ndarray:
-    """The coded ``(runs, k)`` matrix of a ``[design]`` table, in standard order."""
-    from demcal.doe import designs
-
-    kind = DESIGN_TYPES.get(design.type)
-    if kind is None:
-        import difflib
-
-        near = difflib.get_close_matches(design.type, list(DESIGN_TYPES), n=1, cutoff=0.5)
-        hint = f"did you mean '{near[0]}'?" if near else f"choose one of: {', '.join(sorted(set(DESIGN_TYPES.values())))}"
-        raise ConfigError(f"unknown design type '{design.type}'; {hint}")
-    options = dict(design.options)
-    allowed = {
-        "box-behnken": set(),
-        "central-composite": {"variant", "alpha", "fraction"},
-        "full-factorial": {"levels"},
-        "fractional-factorial": {"fraction"},
-        "plackett-burman": {"runs"},
-    }[kind]
-    extra = sorted(set(options) - allowed)
-    if extra:
-        raise ConfigError(f"option '{extra[0]}' does not apply to a {kind} design")
-    center = design.center
-    if kind == "box-behnken":
-        matrix = designs.box_behnken(k, 5 if center is None else center)
-    elif kind == "central-composite":
-        matrix = designs.central_composite(k, options.get("variant", "circumscribed"),
-                                           options.get("alpha", "rotatable"),
-                                           6 if center is None else center,
-                                           _whole(options, "fraction", 0, 0))
-    else:
-        if kind == "full-factorial":
-            matrix = designs.full_factorial([_whole(options, "levels", 2, 2)] * k)
-        elif kind == "fractional-factorial":
-            matrix = designs.fractional_factorial(k, _whole(options, "fraction", 1, 1))
-        else:
-            matrix = designs.plackett_burman(k, options.get("runs"))
-        if center:
-            matrix = np.vstack([matrix, np.zeros((center, k))])
-    return np.asarray(matrix, dtype=float)
-
 
 def _round(value: float) -> float:
     """Actual levels without binary noise (0.6000000000000001 -> 0.6)."""
@@ -134,7 +71,7 @@ def plan_design(campaign: Campaign) -> DesignPlan:
     """
     from demcal.bench.registry import get_experiment, resolve_settings
 
-    coded = design_matrix(campaign.design, len(campaign.factors))
+    coded = campaign.design.matrix(len(campaign.factors))
     experiment = get_experiment(campaign.test)
     n = coded.shape[0]
     specs, points, replicates = [], [], []

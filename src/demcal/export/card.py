@@ -139,42 +139,6 @@ LIGGGHTS_ROLLING = {
 }
 
 
-# ----------------------------------------------------------------------------- reading
-
-
-def calibration_path(campaign) -> Path:
-    """Where ``demcal calibrate`` writes its result for ``campaign``."""
-    return Path(campaign.workdir) / "calibration.json"
-
-
-def read_calibration(campaign) -> tuple[dict, Path, str]:
-    """The parsed calibration.json of ``campaign``, its path and its SHA-256.
-
-    Raises
-    ------
-    DataError
-        There is none yet, or it is not a JSON object: one sentence saying to run
-        ``demcal calibrate`` first.
-    """
-    path = calibration_path(campaign)
-    run = f"run `demcal calibrate {campaign.path}` first"
-    try:
-        blob = path.read_bytes()
-    except FileNotFoundError:
-        raise DataError(f"{campaign.path.name} has no calibration yet ({path} does not exist); "
-                        f"{run}.") from None
-    try:
-        data = json.loads(blob.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as exc:
-        reason = str(exc).split("\n")[0].rstrip(".")
-        raise DataError(f"{path} is not valid JSON ({reason}); run `demcal calibrate "
-                        f"{campaign.path}` again.") from None
-    if not isinstance(data, dict) or not isinstance(data.get("conditions"), list):
-        raise DataError(f"{path} holds no calibrated conditions; run `demcal calibrate "
-                        f"{campaign.path}` again.")
-    return data, path, hashlib.sha256(blob).hexdigest()
-
-
 # ------------------------------------------------------------------------ campaign hash
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.errors import DataError
-from demcal.measure.lab import Summary, summarize
+from demcal.measure.summary import Summary, summarize
 
 
 @dataclass(frozen=True)

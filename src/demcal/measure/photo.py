@@ -54,7 +54,7 @@ from scipy import ndimage
 
 from demcal.errors import DataError
 from demcal.measure.flank import DEFAULT_BAND, OutlineFit, fit_outline
-from demcal.measure.lab import Summary, summarize
+from demcal.measure.summary import Summary, summarize
 
 #: Outliers of a batch: modified z-score ``0.6745 |x - median| / MAD`` above this
 #: (Iglewicz and Hoaglin 1993, "How to Detect and Handle Outliers", ASQC).

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from demcal._cliutil import add_command
+from demcal.cli._util import add_command
 
 
 def register(subparsers) -> None:
@@ -127,7 +127,7 @@ def _report(args) -> int:
 
 
 def _demo(args) -> int:
-    from demcal.campaign.demo import run_demo
+    from demcal.cli.demo import run_demo
 
     path = run_demo(args.out, profile=args.profile, workers=args.workers)
     print(f"Report: {path}")

@@ -6,7 +6,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
-from demcal._cliutil import add_json, add_model_options, add_runs_command, read_runs_from_args
+from demcal.cli._util import add_json, add_model_options, add_runs_command, read_runs_from_args
 from demcal.errors import ConfigError, DataError
 
 if TYPE_CHECKING:

@@ -6,34 +6,45 @@ import sys
 from typing import TYPE_CHECKING
 
 from demcal._checks import and_list
-from demcal._cliutil import add_command, read_runs_from_args
+from demcal.cli._util import add_command, read_runs_from_args
+from demcal.doe.catalog import DESIGN_KINDS, DESIGN_NAMES, OPTION_NAMES, design_kind, kind_label, takers
 from demcal.errors import ConfigError
 
 if TYPE_CHECKING:
     from demcal.doe.design import Design
 
-KINDS = ("box-behnken", "ccd", "factorial", "fractional", "plackett-burman", "steepest-ascent")
+#: The design kinds as ``demcal design --help`` lists them; every spelling of
+#: :data:`demcal.doe.catalog.DESIGN_NAMES` is accepted as well.
+SHOWN_KINDS = ("box-behnken", "ccd", "factorial", "fractional", "plackett-burman", "steepest-ascent")
 
-_BUILT = ("box-behnken", "ccd", "factorial", "fractional", "plackett-burman")
+#: Every kind the command takes: the catalogue's spellings, and paths of steepest ascent
+#: (which follow a fitted model, so they are not in the catalogue).
+KINDS = (*DESIGN_KINDS, "steepest-ascent")
 
-#: Options that only some design kinds take: (attribute, option as typed, kinds). Their
-#: defaults are None (False for flags), so that an option given to a design kind that
-#: does not use it is refused instead of silently ignored.
+_BUILT = tuple(DESIGN_NAMES)
+_PATH = ("steepest-ascent",)
+
+#: Options that only some design kinds take: (attribute, option as typed, kinds by the
+#: catalogue's names). An attribute named like an option of
+#: :data:`demcal.doe.catalog.DESIGN_OPTIONS` is passed to
+#: :func:`~demcal.doe.catalog.design_matrix` under that name. Their defaults are None
+#: (False for flags), so that an option given to a design kind that does not use it is
+#: refused instead of silently ignored.
 KIND_OPTIONS = (
-    ("runs_csv", "a runs CSV", ("steepest-ascent",)),
+    ("runs_csv", "a runs CSV", _PATH),
     ("n_factors", "-k", _BUILT),
-    ("center", "--center", _BUILT),
+    ("center", "--center", takers("center")),
     ("seed", "--seed", _BUILT),
-    ("ccd_type", "--ccd-type", ("ccd",)),
-    ("alpha", "--alpha", ("ccd",)),
-    ("levels", "--levels", ("factorial",)),
-    ("fraction", "--fraction", ("fractional",)),
-    ("generators", "--generators", ("fractional",)),
-    ("runs", "--runs", ("plackett-burman",)),
-    ("response", "--response", ("steepest-ascent",)),
-    ("step", "--step", ("steepest-ascent",)),
-    ("steps", "--steps", ("steepest-ascent",)),
-    ("descent", "--descent", ("steepest-ascent",)),
+    ("variant", "--ccd-type (--variant)", takers("variant")),
+    ("alpha", "--alpha", takers("alpha")),
+    ("levels", "--levels", takers("levels")),
+    ("fraction", "--fraction", takers("fraction")),
+    ("generators", "--generators", takers("generators")),
+    ("runs", "--runs", takers("runs")),
+    ("response", "--response", _PATH),
+    ("step", "--step", _PATH),
+    ("steps", "--steps", _PATH),
+    ("descent", "--descent", _PATH),
 )
 
 
@@ -45,7 +56,10 @@ def register(subparsers) -> None:
         "standard run order, randomised with --seed; with -o FILE, factor levels in "
         "'# factor' comment lines).",
     )
-    p.add_argument("kind", choices=KINDS, help="design type")
+    # no argparse choices: an unknown kind is refused by the catalogue, in one sentence
+    others = [k for k in KINDS if k not in SHOWN_KINDS]
+    p.add_argument("kind", metavar="{" + ",".join(SHOWN_KINDS) + "}",
+                   help=f"design type (also spelled {', '.join(others)})")
     p.add_argument("runs_csv", nargs="?", help="steepest-ascent only: runs of a first-order design")
     p.add_argument("--factor", action="append", default=[], metavar="NAME=LOW:HIGH[units]",
                    help="a factor and its actual low/high levels (repeat per factor)")
@@ -56,13 +70,15 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=None,
                    help="randomise the run order with this seed (default: standard order)")
     p.add_argument("--coded", action="store_true", help="write coded levels instead of actual ones")
-    p.add_argument("--ccd-type", default=None,
+    p.add_argument("--ccd-type", "--variant", dest="variant", default=None,
                    choices=["circumscribed", "inscribed", "face-centred"],
-                   help="CCD type (default: circumscribed)")
+                   help="CCD type (default: circumscribed); a campaign's [design] variant")
     p.add_argument("--alpha", default=None,
                    help="CCD axial distance: rotatable (default), orthogonal or a number")
     p.add_argument("--levels", type=int, default=None, help="factorial: levels per factor (default: 2)")
-    p.add_argument("--fraction", type=int, default=None, help="fractional: p of 2^(k-p)")
+    p.add_argument("--fraction", type=int, default=None,
+                   help="fractional: p of 2^(k-p) (default: 1, or one per generator); "
+                        "ccd: p of its factorial part (default: 0)")
     p.add_argument("--generators", default=None, help="fractional: e.g. D=ABC,E=ABD")
     p.add_argument("--runs", type=int, default=None, help="Plackett-Burman: 8, 12, 16, 20 or 24 runs")
     p.add_argument("--response", help="steepest-ascent: response column")
@@ -74,21 +90,28 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", help="CSV file to write (default: standard output)")
 
 
+def _kind_name(kind: str) -> str:
+    """The catalogue's name of a design kind as typed (``steepest-ascent`` as it is)."""
+    return kind if kind in _PATH else design_kind(kind, also=_PATH)
+
+
 def check_options(args) -> None:
     """Refuse options that the chosen design kind does not use, and bad counts."""
     import math
 
+    kind = _kind_name(args.kind)
     for attr, option, kinds in KIND_OPTIONS:
         value = getattr(args, attr, None)
-        if value is None or value is False or args.kind in kinds:
+        if value is None or value is False or kind in kinds:
             continue
         if attr == "runs_csv":
             raise ConfigError(
                 f"a runs CSV ({value}) is read only by steepest-ascent designs, not by a "
                 f"{args.kind} design; remove it or choose steepest-ascent."
             )
+        labels = [kind_label(k) if k in DESIGN_NAMES else k for k in kinds]
         raise ConfigError(
-            f"{option} does not apply to a {args.kind} design; only {and_list(kinds)} designs "
+            f"{option} does not apply to a {args.kind} design; only {and_list(labels)} designs "
             f"take it, so remove it or choose one of those."
         )
     if args.n_factors is not None and args.n_factors < 1:
@@ -99,7 +122,9 @@ def check_options(args) -> None:
         raise ConfigError(f"--seed must be a whole number of 0 or more, not {args.seed}.")
     if args.levels is not None and args.levels < 2:
         raise ConfigError(f"--levels must be at least 2 levels per factor, not {args.levels}.")
-    if args.fraction is not None and args.fraction < 1:
+    if args.fraction is not None and kind == "central-composite" and args.fraction < 0:
+        raise ConfigError(f"--fraction (p of the 2^(k-p) factorial part) must be 0 or more, not {args.fraction}.")
+    if args.fraction is not None and kind != "central-composite" and args.fraction < 1:
         raise ConfigError(f"--fraction (p of 2^(k-p)) must be at least 1, not {args.fraction}.")
     if args.generators is not None and args.fraction is not None:
         n = len([g for g in args.generators.split(",") if g.strip()])
@@ -124,18 +149,6 @@ def check_options(args) -> None:
         raise ConfigError(f"--steps must be at least 1, not {args.steps}.")
 
 
-def _with_center(coded, center, what: str):
-    """``coded`` with ``center`` centre rows appended, checked against the run cap."""
-    import numpy as np
-
-    from demcal.doe.designs import check_center, check_run_count
-
-    center = check_center(center or 0)
-    check_run_count(coded.shape[0] + center, f"{what} with {center:,} centre points",
-                    "use fewer centre points")
-    return np.vstack([coded, np.zeros((center, coded.shape[1]))])
-
-
 def _factors(args):
     from demcal.doe.factors import coded_factors, default_names, parse_factor
 
@@ -151,37 +164,14 @@ def _factors(args):
 
 def build_design(args) -> Design:
     """The :class:`Design` described by parsed ``demcal design`` arguments."""
+    from demcal.doe.catalog import design_matrix
     from demcal.doe.design import Design
-    from demcal.doe.designs import (
-        box_behnken, central_composite, fractional_factorial, full_factorial, plackett_burman,
-    )
 
     check_options(args)
     if args.kind == "steepest-ascent":
         return _steepest(args)
     factors = _factors(args)
-    k = len(factors)
-    if args.kind == "box-behnken":
-        coded = box_behnken(k, 5 if args.center is None else args.center)
-    elif args.kind == "ccd":
-        alpha = "rotatable" if args.alpha is None else args.alpha
-        try:
-            alpha = float(alpha)
-        except ValueError:
-            pass
-        coded = central_composite(k, args.ccd_type or "circumscribed", alpha,
-                                  6 if args.center is None else args.center)
-    elif args.kind == "factorial":
-        levels = 2 if args.levels is None else args.levels
-        coded = _with_center(full_factorial([levels] * k), args.center,
-                             f"a full factorial of {k} factors at {levels:,} levels")
-    elif args.kind == "fractional":
-        gens = [g for g in args.generators.split(",") if g.strip()] if args.generators else None
-        coded = fractional_factorial(k, args.fraction, gens)
-        coded = _with_center(coded, args.center, f"a {coded.shape[0]}-run fractional factorial")
-    else:  # plackett-burman
-        coded = plackett_burman(k, args.runs)
-        coded = _with_center(coded, args.center, f"a {coded.shape[0]}-run Plackett-Burman design")
+    coded = design_matrix(args.kind, factors, **{name: getattr(args, name) for name in OPTION_NAMES})
     return Design(args.kind, tuple(factors), coded).randomized(args.seed)
 
 

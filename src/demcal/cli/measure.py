@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
-from demcal._cliutil import add_command, add_json
+from demcal.cli._util import add_command, add_json
 from demcal.errors import ConfigError, DataError
 
 

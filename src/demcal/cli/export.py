@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from demcal._cliutil import add_command
+from demcal.cli._util import add_command
 from demcal.errors import ConfigError
 
 FORMAT_NAMES = ("json", "liggghts", "edem")
@@ -57,9 +57,10 @@ def run(args: argparse.Namespace) -> int:
 def export(campaign_path: Path, format: str = "json", conditions: list[str] | None = None, *,
            allow_outside: bool = False) -> str:
     """The material card of the campaign file ``campaign_path`` in ``format``."""
+    from demcal.campaign.chain import read_calibration
     from demcal.campaign.config import load_campaign
     from demcal.export import formatter
-    from demcal.export.card import build_card, read_calibration
+    from demcal.export.card import build_card
 
     campaign = load_campaign(campaign_path, allow_outside=allow_outside)
     calibration, path, digest = read_calibration(campaign)

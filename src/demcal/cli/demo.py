@@ -1,5 +1,9 @@
 """``demcal demo``: the reference paper's two campaigns end to end.
 
+The workflow behind the command (registered in :mod:`demcal.cli.campaign`); it lives in
+the command-line layer because it drives both the campaigns and the report, which sit
+below it.
+
 Copies ``examples/residual-film-soil`` into ``OUT/campaigns``, runs the repose design
 (29 runs) and calibrates it (verification replicates included), then the sliding one
 (17 runs per moisture content: its runs of each condition take the inter-particle values

@@ -1,8 +1,10 @@
-"""The ``demcal`` command line.
+"""The ``demcal`` command line: the one layer above every subsystem.
 
-Each subsystem registers its own sub-commands: a module listed in
-:data:`COMMAND_MODULES` exposes ``register(subparsers)``, which adds its parsers
-and sets ``func`` on each (``func(args) -> int`` exit status). Errors of type
+Each module of this package (``demcal.cli.doe``, ``demcal.cli.rsm``, ...) holds the
+sub-commands of one subsystem: a module listed in :data:`COMMAND_MODULES` exposes
+``register(subparsers)``, which adds its parsers and sets ``func`` on each
+(``func(args) -> int`` exit status). The subsystems never import this package; it
+imports them, inside the functions that run a command. Errors of type
 :class:`demcal.errors.DemcalError` are printed as one sentence, exit status 2; so
 are file-system errors (:class:`OSError`: a file where a folder is wanted, no
 permission, a full disk), which name the path and what to do.
@@ -22,13 +24,13 @@ from demcal.errors import ConfigError, DemcalError
 
 #: Modules that contribute sub-commands, in the order they appear in ``--help``.
 COMMAND_MODULES = (
-    "demcal.doe.commands",  # design
-    "demcal.rsm.commands",  # analyze
-    "demcal.optimize.commands",  # optimize
-    "demcal.measure.commands",  # measure repose|incline
-    "demcal.bench.commands",  # bench NAME
-    "demcal.campaign.commands",  # run, calibrate, report, demo
-    "demcal.export.commands",  # export
+    "demcal.cli.doe",  # design
+    "demcal.cli.rsm",  # analyze
+    "demcal.cli.optimize",  # optimize
+    "demcal.cli.measure",  # measure repose|incline
+    "demcal.cli.bench",  # bench NAME
+    "demcal.cli.campaign",  # run, calibrate, report, demo
+    "demcal.cli.export",  # export
 )
 
 
