@@ -168,7 +168,7 @@ def main(argv=None):
     sim.run(steps=args.steps)
     loop = time.perf_counter() - t2
     n = sim.n_particles
-    nbytes = sum(v.nbytes for d in (sim._b, sim._s, sim._p, sim._q) for v in d.values())
+    nbytes = sim.nbytes
     ncontacts = len(sim.contacts()[0])
     out = {
         "particles": n,

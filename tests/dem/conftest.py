@@ -2,9 +2,9 @@
 
 import pytest
 
-from demcal.dem.simulation import BACKENDS
+from demcal.dem.backend import BACKENDS
 
 
-@pytest.fixture(params=BACKENDS)
+@pytest.fixture(params=list(BACKENDS))
 def backend(request):
     return request.param

@@ -70,7 +70,7 @@ def _closed_form_top(sim0, t):
     st = sim0.state
     l = st.angular_momenta[0].copy()
     r0 = _rotation(st.quaternions[0])
-    i_a, i_p = sim0._b["inertia"][0, 0], sim0._b["inertia"][0, 1]
+    i_a, i_p = sim0.state.inertias[0, 0], sim0.state.inertias[0, 1]
     w = (1.0 / i_a - 1.0 / i_p) * np.dot(l, r0.apply([1.0, 0.0, 0.0]))
     return Rotation.from_rotvec(t * l / i_p) * r0 * Rotation.from_rotvec([t * w, 0.0, 0.0])
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from demcal.dem import GravityRamp, GravityRotation, Simulation
+from demcal.dem.threads import Workers
 from demcal.particles.materials import Interaction, Material
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "dem.md"
@@ -64,9 +65,10 @@ def _code_defaults():
     for cls in (Interaction, Material):
         out.update({f"{cls.__name__}.{f.name}": f.default for f in dataclasses.fields(cls)
                     if f.default is not dataclasses.MISSING})
-    for name in ("overlap_tolerance", "sort_threshold", "sort_interval",
-                 "parallel_threshold"):
+    for name in ("overlap_tolerance", "sort_threshold", "sort_interval"):
         out["Simulation." + name] = getattr(Simulation, name)
+    # the threads' own default, which sim.parallel_threshold reads and sets
+    out["Simulation.parallel_threshold"] = Workers.parallel_threshold
     return out
 
 
@@ -84,3 +86,22 @@ def test_engine_docs_point_at_no_missing_file(needle):
     for folder in ("dem", "geometry", "particles"):
         for path in (root / folder).rglob("*.py"):
             assert needle not in path.read_text(encoding="utf-8"), path
+
+
+def test_docs_backend_example_runs():
+    # docs/dem.md, "What a backend implements": a backend plugged in by name runs
+    text = DOC.read_text(encoding="utf-8").split("### What a backend implements", 1)[1]
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    exec(compile(code, str(DOC), "exec"), {})
+
+
+def test_importing_the_engine_touches_no_file():
+    # the numba cache guard is an explicit call made by the first backend, not an
+    # import side effect (issue 18 item 7)
+    import subprocess
+    import sys
+
+    code = ("import demcal.dem, demcal.dem._cache as c; assert not c._ensured; "
+            "from demcal.particles.materials import soil, soil_interaction; "
+            "demcal.dem.Simulation([soil()], soil_interaction()); assert c._ensured")
+    subprocess.run([sys.executable, "-c", code], check=True)

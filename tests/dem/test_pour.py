@@ -66,11 +66,10 @@ def test_pour_2000_comes_to_rest(backend):
     _settle(backend, 2000, 0.06, 1.2, rolling="type_c")
 
 
-def _active_history(rows):
-    """Active contact slots of a pair (``sim._p``) or wall (``sim._q``) list and their
-    tangential spring history (history columns 0:3)."""
-    n = int(rows["start"][-1])
-    return rows["hist"][:n][rows["act"][:n], :3]
+def _active_history(hist):
+    """The tangential spring history (history columns 0:3) of touching contacts
+    (``sim.contact_histories()``)."""
+    return hist[:, :3]
 
 
 def test_checkpoint_restart_is_bit_identical(backend, tmp_path):
@@ -85,7 +84,7 @@ def test_checkpoint_restart_is_bit_identical(backend, tmp_path):
 
     a = build()
     a.run(steps=3500)
-    pair_hist, wall_hist = _active_history(a._p), _active_history(a._q)
+    pair_hist, wall_hist = (_active_history(h) for h in a.contact_histories())
     assert len(pair_hist) > 150 and len(wall_hist) > 50          # many contacts of each kind
     assert (np.abs(pair_hist).sum(axis=1) > 0).sum() > 100       # with tangential history
     assert (np.abs(wall_hist).sum(axis=1) > 0).sum() > 40
@@ -123,7 +122,8 @@ def test_same_result_for_any_thread_count(backend, template, model, fill):
         sim.run(steps=5000)
         assert len(sim.contacts()[0]) > 250
         if threads > 1:             # contacts across chunks have been evaluated twice
-            assert sim._p["act"][sim._halo["slot"]].sum() > 50
+            pairs = sim.contact_lists()[0]
+            assert pairs.act[sim.engine_backend.halo.slot].sum() > 50
         st = sim.state
         runs.append([st.positions.copy(), st.angular_momenta.copy(), st.forces.copy(),
                      st.torques.copy(), *sim.contacts()])

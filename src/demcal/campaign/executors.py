@@ -192,6 +192,11 @@ def _limit_threads(threads: int | None) -> None:
         return
     numba = sys.modules.get("numba")
     if numba is not None:
+        # the engine picks numba's threading layer first (OpenMP before TBB): setting
+        # the thread count starts the layer
+        from demcal.dem.backend import CpuBackend
+
+        CpuBackend.prepare()
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
 
 

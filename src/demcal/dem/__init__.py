@@ -62,13 +62,9 @@ Example
 >>> sim.run(duration=0.1)                                  # doctest: +SKIP
 """
 
-from ._cache import guard as _guard
-from ._cache import prefer_openmp as _prefer_openmp
-
-_guard()
-_prefer_openmp()
-
-from .contact.registry import ContactModel  # noqa: E402
+# The numba cache guard runs when the first Simulation is built (``_cache.ensure``),
+# not at import.
+from .contact.registry import ContactModel
 from .gravity import GravityRamp, GravityRotation
 from .simulation import RunSummary, Simulation, State
 

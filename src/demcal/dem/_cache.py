@@ -5,7 +5,9 @@ numba's ``cache=True`` only notices changes to the file that defines a function,
 the kernels it calls (a driver in ``forces.py`` inlines ``contact/*.py`` and
 ``geometry/kernels.py``). :func:`guard` hashes every engine source the drivers depend on
 and, when the hash differs from the one recorded next to the cache, deletes the
-engine's cache files so they are recompiled. Cheap (a few ms) and run once at import.
+engine's cache files so they are recompiled. Cheap (a few ms); :func:`ensure` runs it once per
+process, when the first :class:`~demcal.dem.Simulation` is built (importing
+:mod:`demcal.dem` changes no file).
 
 It also touches the engine's Python files then. A process started before the change
 still compiles the old code, and may write it to the cache after the files were
@@ -31,6 +33,7 @@ _HERE = Path(__file__).resolve().parent
 _SOURCES = [_HERE / "forces.py", _HERE / "integrator.py", _HERE / "neighbours.py",
             *(_HERE / "contact").glob("*.py"),
             _HERE.parent / "geometry" / "kernels.py",
+            _HERE.parent / "geometry" / "placement.py",
             _HERE.parent / "particles" / "materials.py"]
 
 
@@ -137,3 +140,18 @@ def prefer_openmp() -> None:
             or "NUMBA_THREADING_LAYER_PRIORITY" in os.environ):
         return
     numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+
+
+_ensured = False
+
+
+def ensure() -> None:
+    """Once per process, before the engine's first compiled call: :func:`guard` the
+    cache and :func:`prefer_openmp`. Called by the backend a simulation builds; code that
+    calls the engine's kernels directly calls it first."""
+    global _ensured
+    if _ensured:
+        return
+    _ensured = True
+    guard()
+    prefer_openmp()

@@ -145,3 +145,30 @@ def as_schedule(value):
         return value
     raise ConfigError(f"gravity_schedule must be a GravityRamp, GravityRotation (from "
                       f"demcal.dem.gravity) or None, got {type(value).__name__}.")
+
+
+class ScheduleClock:
+    """A schedule as a simulation applies it: the windows are counted from the step at
+    which the schedule was set (``anchor``: that step, its time, the time step and the
+    window's width), and start again when the time step changes."""
+
+    def __init__(self, schedule):
+        self.schedule = as_schedule(schedule)
+        self.anchor = None
+
+    def apply(self, gravity, time, step, dt, nsteps) -> int:
+        """Set ``gravity`` (in place) for the coming steps; returns how many of the
+        ``nsteps`` lie in the current window (all of them without a schedule).
+        ``dt`` is None while there are no particles (gravity set to its value now)."""
+        sch = self.schedule
+        if sch is None or dt is None:
+            if sch is not None:
+                gravity[:] = sch.at(time)
+            return nsteps
+        a = self.anchor
+        if a is None or a[2] != dt:   # first use, or particles changed the step
+            a = self.anchor = (step, time, dt, sch.window(dt))
+        n0, t0, _, width = a
+        first = n0 + (step - n0) // width * width
+        gravity[:] = sch.at(t0 + (first - n0 + 0.5 * (width + 1)) * dt)
+        return min(nsteps, first + width - step)

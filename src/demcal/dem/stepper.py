@@ -7,8 +7,9 @@ once per neighbour-list period instead of four times per step; results are bitwi
 of the step-by-step path. It stops early, right after a drift, when the neighbour list
 must be rebuilt (a sphere moved more than half the skin since the last build, counting
 the walls' travel, or a position became NaN); the host then rebuilds and finishes that
-step. Walls that move by a constant-velocity translation are placed at every step's
-time by :func:`place_translating`; the others keep their geometry during the call (the
+step. Walls that move by a constant-velocity translation or a constant-rate rotation
+are placed at every step's time by :func:`~demcal.geometry.placement.place_moving`;
+the others keep their geometry during the call (the
 host only uses it while no other wall needs re-placing). ``travel_per_step`` bounds how
 far any wall point moves in a step.
 
@@ -20,50 +21,114 @@ of Python's dispatch of each kernel.
 """
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
 
-from demcal.geometry.kernels import TRIANGLE
+from demcal.geometry.placement import place_moving
 
 from .forces import commit_deferred, pair_forces, wall_forces
 from .integrator import drift, gather_kick
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
-                      wparams, worigin, wvel):
-    """Place the walls that move by a constant-velocity translation at ``time``, with
-    the very operations of ``WallSet.update`` (``x = x_ref + v * t_active``; directions
-    and sizes do not change under a translation), so a run gives the same numbers
-    whether the host or this loop places them."""
-    for w in range(tflag.shape[0]):
-        if tflag[w] == 0:
-            continue
-        at = min(max(time - tstart[w], 0.0), tstop[w] - tstart[w])
-        moving = tstart[w] <= time < tstop[w]
-        npts = 3 if wkind[w] == TRIANGLE else 1
-        for k in range(3):
-            d = tvel[w, k] * at
-            for q in range(npts):
-                wparams[w, 3 * q + k] = ref_params[w, 3 * q + k] + d
-            worigin[w, k] = ref_origin[w, k] + d
-            wvel[w, k] = tvel[w, k] if moving else 0.0
+class StepParams(NamedTuple):
+    """The scalars and constants of one compiled call: time step [s], time [s], gravity
+    [m/s2], sub-model ids, pair table, half the skin [m], the walls' travel since the
+    last build [m] and its bound per step [m]."""
+
+    dt: float
+    time: float
+    gravity: np.ndarray
+    models: np.ndarray
+    table: np.ndarray
+    half_skin: float
+    travel: float
+    travel_per_step: float
+
+
+class Translations(NamedTuple):
+    """The walls the compiled loop places itself (``WallSet.translations``): a flag per
+    row (:mod:`demcal.geometry.placement`), a translation's velocity [m/s], start and
+    stop times [s], the reference rows, and a rotation's unit axis, point [m] and rate
+    [rad/s]."""
+
+    tflag: np.ndarray
+    tvel: np.ndarray
+    tstart: np.ndarray
+    tstop: np.ndarray
+    ref_params: np.ndarray
+    ref_origin: np.ndarray
+    axis: np.ndarray
+    point: np.ndarray
+    rate: np.ndarray
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, travel_per_step,
+def run_steps(nsteps, params, bodies, spheres, pairs, wcontacts, walls, motions):
+    """Advance up to ``nsteps`` steps; returns ``(steps, rebuild, time, travel)``.
+
+    ``params`` is a :class:`StepParams`; ``bodies``, ``spheres``, ``pairs`` and
+    ``wcontacts`` are the store's containers (:mod:`demcal.dem.storage`), ``walls`` the
+    engine's wall rows (:class:`demcal.dem.walltable.WallRows`) and ``motions`` the
+    walls this loop places itself (:class:`Translations`): those flagged in ``tflag``
+    are placed at each step's time by
+    :func:`~demcal.geometry.placement.place_moving`; the others keep their
+    geometry.
+
+    With ``rebuild`` true the last step has drifted but its forces are not evaluated:
+    the host rebuilds the lists, then evaluates forces and kicks.
+    """
+    b, s, p, q, w, m = bodies, spheres, pairs, wcontacts, walls, motions
+    return _run_steps(nsteps, params.dt, params.time, params.gravity, params.models,
+                      params.table, params.half_skin, params.travel,
+                      params.travel_per_step, b.pos, b.vel, b.quat, b.angmom, b.omega,
+                      b.force, b.torque, b.mass, b.inertia, b.iso, b.mat, b.fixed,
+                      b.start, s.body, s.offset, s.radius, s.pos, s.ref, s.dsq, s.acc,
+                      p.start, p.other, p.hist, p.out, p.act,
+                      q.start, q.other, q.hist, q.out, q.act,
+                      w.kind, w.params, w.velocity, w.omega, w.origin, w.material,
+                      m.tflag, m.tvel, m.tstart, m.tstop, m.ref_params, m.ref_origin,
+                      m.axis, m.point, m.rate)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def run_steps_split(nsteps, params, bodies, spheres, pairs, wcontacts, walls, motions,
+                    halo):
+    """:func:`run_steps` split between numba's threads; same arguments plus the split
+    (``halo``, a :class:`~demcal.dem.backend.HaloIndex`: the chunks and the pair list's
+    halo index built for them, ``neighbours.halo_index``, with its buffer
+    ``deferred``). The parallel loop itself (:func:`_run_steps_split`) takes the arrays
+    one by one: numba's parallel lowering is fastest with plain array arguments."""
+    b, s, p, q, w, m, h = bodies, spheres, pairs, wcontacts, walls, motions, halo
+    return _run_steps_split(nsteps, h.chunks, params.dt, params.time, params.gravity,
+                            params.models, params.table, params.half_skin, params.travel,
+                            params.travel_per_step, b.pos, b.vel, b.quat, b.angmom,
+                            b.omega, b.force, b.torque, b.mass, b.inertia, b.iso, b.mat,
+                            b.fixed, b.start, s.body, s.offset, s.radius, s.pos, s.ref,
+                            s.dsq, s.acc, p.start, p.other, p.hist, p.out, p.act,
+                            h.rows, h.row, h.slots, h.slot, h.slot_deferred,
+                            h.deferred_start, h.deferred,
+                            q.start, q.other, q.hist, q.out, q.act,
+                            w.kind, w.params, w.velocity, w.omega, w.origin, w.material,
+                            m.tflag, m.tvel, m.tstart, m.tstop, m.ref_params,
+                            m.ref_origin, m.axis, m.point, m.rate)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, travel_per_step,
               bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia, biso,
               bmat, bfixed, bstart,
               sbody, soffset, srad, spos, sref, sdsq, sacc,
               p_start, p_nbr, p_hist, p_out, p_act,
               q_start, q_wid, q_hist, q_out, q_act,
               wkind, wparams, wvel, womega, worigin, wmat,
-              tflag, tvel, tstart, tstop, ref_params, ref_origin):
+              tflag, tvel, tstart, tstop, ref_params, ref_origin, axis, point, rate):
     """Advance up to ``nsteps`` steps; returns ``(steps, rebuild, time, travel)``.
 
     Walls flagged in ``tflag`` are placed at each step's time by
-    :func:`place_translating` (the arguments after ``wmat``); the others keep their
+    :func:`~demcal.geometry.placement.place_moving` (the arguments after ``wmat``); the
+    others keep their
     geometry.
 
     With ``rebuild`` true the last step has drifted but its forces are not evaluated:
@@ -80,8 +145,8 @@ def run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trave
         travel += travel_per_step
         if math.sqrt(mx) + travel > half_skin:
             return k + 1, True, time, travel
-        place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
-                          wparams, worigin, wvel)
+        place_moving(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params,
+                     ref_origin, wkind, wparams, worigin, wvel, womega)
         pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
                     bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, none, none, none, 0,
                     0, no_deferred, 0, 0, ns)
@@ -104,7 +169,7 @@ def _largest(mxs):
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin, travel,
+def _run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin, travel,
                     travel_per_step,
                     bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
                     biso, bmat, bfixed, bstart,
@@ -114,8 +179,8 @@ def run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin,
                     deferred_start, deferred,
                     q_start, q_wid, q_hist, q_out, q_act,
                     wkind, wparams, wvel, womega, worigin, wmat,
-                    tflag, tvel, tstart, tstop, ref_params, ref_origin):
-    """:func:`run_steps` split between numba's threads; same arguments plus the chunks
+                    tflag, tvel, tstart, tstop, ref_params, ref_origin, axis, point, rate):
+    """:func:`_run_steps` split between numba's threads; same arguments plus the chunks
     and the halo index of the pair list (``neighbours.halo_index``, built for these
     chunks) with its buffer ``deferred``.
 
@@ -136,8 +201,8 @@ def run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin,
         travel += travel_per_step
         if not math.sqrt(_largest(mxs)) + travel <= half_skin:
             return k + 1, True, time, travel
-        place_translating(time, tflag, tvel, tstart, tstop, ref_params, ref_origin, wkind,
-                          wparams, worigin, wvel)
+        place_moving(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params,
+                     ref_origin, wkind, wparams, worigin, wvel, womega)
         for c in prange(nchunks):
             pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, halo_row,

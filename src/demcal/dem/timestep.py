@@ -18,6 +18,8 @@ contact is where velocity Verlet stops resolving a collision (it is unstable bey
 
 import math
 
+import numpy as np
+
 from demcal.errors import ConfigError
 
 from .contact.registry import NORMAL_HERTZ
@@ -84,3 +86,39 @@ def check_dt(dt, normal_model, t_rayleigh, t_contact):
             f"dt = {dt:.3g} s is above the stable limit {limit:.3g} s for these "
             f"stiffnesses (Rayleigh time {t_rayleigh:.3g} s, shortest contact "
             f"{t_contact:.3g} s); use dt <= {limit:.3g} s or leave dt unset.")
+
+
+def time_scales(description, body_mat, body_mass, sphere_radius, sphere_body, wall_mat):
+    """(Rayleigh time, shortest contact duration) [s] of the particles present: per
+    material, its smallest sphere and lightest body against every material present and
+    every wall material (``description``: a :class:`~demcal.dem.description.Description`).
+    """
+    mats = np.unique(body_mat)
+    t_r = math.inf
+    pp, pw = [], []
+    wmats = np.unique(wall_mat)
+    for m in mats:
+        sel = body_mat == m
+        smask = np.isin(sphere_body, np.nonzero(sel)[0])
+        rmin = sphere_radius[smask].min()
+        mmin = body_mass[sel].min()
+        mat = description.materials[m]
+        t_r = min(t_r, rayleigh_time(rmin, mat.density, mat.shear_modulus,
+                                     mat.poisson_ratio))
+        for m2 in mats:
+            pp.append((m, m2, rmin / 2.0, mmin / 2.0))
+        for wm in wmats:
+            pw.append((m, wm, rmin, mmin))
+    t_c = contact_times(int(description.models[0]), description.table, pp, pw,
+                        description.impact_speed)
+    return t_r, t_c
+
+
+def resolve_dt(description, t_rayleigh, t_contact) -> float:
+    """The step of a simulation: the user's ``dt`` checked against the stable limit, or
+    the automatic one (:func:`choose_dt`)."""
+    model = int(description.models[0])
+    if description.dt is not None:
+        check_dt(description.dt, model, t_rayleigh, t_contact)
+        return description.dt
+    return choose_dt(model, t_rayleigh, t_contact, description.dt_fraction)

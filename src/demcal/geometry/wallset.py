@@ -29,6 +29,8 @@ import numpy as np
 
 from demcal.errors import ConfigError
 from demcal.geometry import kernels as K
+from demcal.geometry.motion import Rotation
+from demcal.geometry.placement import ROTATION, TRANSLATION, place_moving
 from demcal.geometry.walls import Wall, aabb_rows, transform_rows
 
 __all__ = ["WallSet", "triangulate_row"]
@@ -109,15 +111,17 @@ class WallSet:
         return len(self.walls)
 
     def translations(self):
-        """Rows whose wall moves by a :class:`~demcal.geometry.motion.Translation`, for
-        the engine's compiled step loop, which places them itself (see
-        ``demcal.dem.stepper.place_translating``).
+        """The moving rows the engine's compiled step loop places itself at every step
+        (:func:`demcal.geometry.placement.place_moving`): those of walls that move by a
+        :class:`~demcal.geometry.motion.Translation` or a
+        :class:`~demcal.geometry.motion.Rotation`.
 
-        Returns ``(flag, velocity, start, stop, ref_params, ref_origin)``: ``flag[w]`` 1
-        for such a row, its translation velocity [m/s] and active interval [s], and the
-        reference parameters and origin the motion is applied to; or None when some
-        moving wall has another motion (the engine then places the walls from Python
-        every step).
+        Returns ``(flag, velocity, start, stop, ref_params, ref_origin, axis, point,
+        rate)``: ``flag[w]`` (``placement.TRANSLATION`` or ``placement.ROTATION``, 0 for
+        a still row), the translation velocity [m/s], the active interval [s], the
+        reference rows the motion is applied to, and a rotation's unit axis, point [m]
+        and rate [rad/s]; or None when some moving wall has another motion (a function
+        of time: the engine then places the walls from Python every step).
         """
         from demcal.geometry.motion import Translation
 
@@ -126,17 +130,28 @@ class WallSet:
         vel = np.zeros((nw, 3))
         start = np.zeros(nw)
         stop = np.zeros(nw)
+        axis = np.zeros((nw, 3))
+        point = np.zeros((nw, 3))
+        rate = np.zeros(nw)
         for g, w in enumerate(self.walls):
-            if not w.motion.moving:
+            m = w.motion
+            if not m.moving:
                 continue
-            if type(w.motion) is not Translation:
-                return None
             s = self._slices[g]
-            flag[s] = 1
-            vel[s] = w.motion.velocity
-            start[s] = w.motion.start
-            stop[s] = w.motion.stop
-        return flag, vel, start, stop, self._ref_params, self._ref_origin
+            if type(m) is Translation:
+                flag[s] = TRANSLATION
+                vel[s] = m.velocity
+            elif type(m) is Rotation:
+                flag[s] = ROTATION
+                axis[s] = m.axis
+                point[s] = m.point
+                rate[s] = m.angular_speed
+            else:
+                return None
+            start[s] = m.start
+            stop[s] = m.stop
+        return (flag, vel, start, stop, self._ref_params, self._ref_origin, axis, point,
+                rate)
 
     def rows_of(self, name: str) -> slice:
         """The row slice of the wall called ``name``."""
@@ -196,9 +211,20 @@ class WallSet:
         s = self._slices[g]
         if s.stop == s.start:
             return
+        kinds = self.kind[s]
+        if type(w.motion) is Rotation:
+            # the compiled step loop's own arithmetic, so both paths agree to the bit
+            n = s.stop - s.start
+            place_moving(t, np.full(n, ROTATION, np.int64), np.zeros((n, 3)),
+                         np.full(n, w.motion.start), np.full(n, w.motion.stop),
+                         np.tile(w.motion.axis, (n, 1)), np.tile(w.motion.point, (n, 1)),
+                         np.full(n, w.motion.angular_speed), self._ref_params[s],
+                         self._ref_origin[s], kinds, self.params[s], self.origin[s],
+                         self.velocity[s], self.omega[s])
+            self.aabb[s] = aabb_rows(kinds, self.params[s])
+            return
         rot, trans = w.motion.transform(t)
         omega, v0 = w.motion.twist(t)
-        kinds = self.kind[s]
         self.params[s] = transform_rows(kinds, self._ref_params[s], rot, trans)
         origin = self._ref_origin[s] @ rot.T + trans
         self.origin[s] = origin
