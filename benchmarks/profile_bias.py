@@ -26,7 +26,9 @@ ENTRIES = [
 ]
 # Not the funnel: its two points at both profiles differ by -14.9 deg (Table 4 run 16)
 # and +9.4 deg (run 7), opposite signs; no constant bias describes that, and one stored
-# as their mean would mislead the loop (docs/validation.md).
+# as their mean would mislead the loop. Over five Table 4 points the paper-profile heap
+# even falls as the rolling friction rises (correlation with the published heaps -0.98;
+# docs/validation.md).
 TARGET = ROOT / "src" / "demcal" / "data" / "profile_bias.json"
 
 
