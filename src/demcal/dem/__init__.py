@@ -53,6 +53,11 @@ Reporters (:mod:`demcal.dem.reporters`): ``ProgressReporter``, ``EnergyReporter`
 Determinism: every array element is written by one thread and sums run in a fixed
 order, so a run gives bitwise identical results for any thread count and on restart.
 
+Architecture (docs/dem.md, "Layout"): a frozen description (``description.py``), the
+run state as named fields (``storage.py``), the spatial order (``ordering.py``), a
+backend that runs the compiled loops (``backend.py``, ``BACKENDS``), and the
+``Simulation`` (``simulation.py``), the public face and the run loop.
+
 Example
 -------
 >>> from demcal.dem import Simulation
