@@ -241,6 +241,7 @@ class ReposeFunnel(C.BenchExperiment):
         add()
         settle = C.Settle(sim, float(s["time.rest_speed"]))
         last_report = [0.0]
+        held = [0]      # particles held on the funnel wall at the end, left out
 
         def each():
             add()
@@ -256,11 +257,20 @@ class ReposeFunnel(C.BenchExperiment):
             st = sim.state
             if not inserter.done:
                 return False
-            in_funnel = int(np.sum(st.positions[:, 2] > h_out - 0.5 * b_max))
+            inside = st.positions[:, 2] > h_out - 0.5 * b_max
+            in_funnel = int(inside.sum())
             if in_funnel and _jammed(sim, h_out, b_max):
-                raise SimulationError(
-                    f"the funnel jammed with {in_funnel} particles in it at t = {sim.time:.2f} s; "
-                    "raise geometry.outlet_diameter or geometry.scale.")
+                if in_funnel > _held_limit(st.n + held[0]):
+                    raise SimulationError(
+                        f"the funnel jammed with {in_funnel} particles in it at t = "
+                        f"{sim.time:.2f} s; raise geometry.outlet_diameter or geometry.scale.")
+                # a few grains held on the funnel's wall, not an arch: as in the lab they
+                # stay in the funnel, out of the heap and out of its silhouette
+                progress(f"t {sim.time:.2f} s: {in_funnel} particle(s) held on the funnel wall, "
+                         "left out of the heap")
+                held[0] += in_funnel
+                sim.remove_particles(inside)
+                in_funnel = 0
             return settle(in_funnel == 0)
 
         done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each)
@@ -272,7 +282,16 @@ class ReposeFunnel(C.BenchExperiment):
                 f"the heap was not at rest after time.max_time = {s['time.max_time']:g} s "
                 f"({in_funnel} particles still in the funnel, rms speed {C.rms_speed(sim):.3g} m/s); "
                 "raise time.max_time.")
-        return _measure(sim, s, r_plate, out_dir, vtkw, progress)
+        out = _measure(sim, s, r_plate, out_dir, vtkw, progress)
+        out["responses"]["particles_held"] = float(held[0])
+        out["particles"] += held[0]
+        return out
+
+
+def _held_limit(n: int) -> int:
+    """At most this many static particles left in the funnel count as grains held on its
+    wall (0.5 % of the particles, at least 3); more are an arch over the outlet."""
+    return max(3, int(0.005 * n))
 
 
 def _jammed(sim, h_out, b_max) -> bool:
