@@ -3,8 +3,9 @@ and moving walls.
 
 :func:`advance` takes exactly ``n`` steps. Most run inside one compiled call per
 neighbour-list period (:meth:`~demcal.dem.backend.CpuBackend.steps`), which places the
-walls that translate at constant velocity itself; a wall that moves otherwise (a
-rotation, a function of time) is placed from Python before each step. A rebuild
+walls that translate at constant velocity or turn at a constant rate itself
+(:func:`demcal.geometry.placement.place_moving`); a wall moved by a function of time is
+placed from Python before each step. A rebuild
 (:func:`rebuild`) first stops on NaN positions, drops particles that left the domain and
 re-sorts the particles in space when due (:mod:`demcal.dem.ordering`).
 """

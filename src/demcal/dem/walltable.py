@@ -99,9 +99,9 @@ class WallTable:
 
     def translations(self):
         """The compiled loop's table of walls it places itself (constant-velocity
-        translations, ``WallSet.translations``), or None when some moving wall must be
-        placed from Python before every step (a rotation, a function of time, or a
-        wall whose motion changed since it was last placed)."""
+        translations and constant-rate rotations, ``WallSet.translations``), or None
+        when some moving wall must be placed from Python before every step (a function
+        of time)."""
         w = self.walls
         nw = self.rows.n
         if (self.moving and w is not None
