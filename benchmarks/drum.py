@@ -22,18 +22,13 @@ import numpy as np
 
 def drum(turning: bool, n: int = 224):
     from demcal.dem import Simulation
-    from demcal.geometry import Cylinder, Disk, Rotation, Static, WallSet
+    from demcal.geometry import Rotation, Static, WallSet, closed_drum
     from demcal.particles.materials import Interaction, soil, steel
 
     r, rd, length = 0.0045, 0.0405, 0.048
     turn = (Rotation(point=(0, 0, 0), axis=(0, 1, 0), angular_speed=2.0) if turning
             else Static())
-    walls = WallSet([Cylinder(base=(0, -length / 2, 0), axis=(0, 1, 0), radius=rd,
-                              length=length, material=1, name="drum", motion=turn),
-                     Disk(centre=(0, -length / 2, 0), normal=(0, 1, 0), radius=rd,
-                          material=1, name="front", motion=turn),
-                     Disk(centre=(0, length / 2, 0), normal=(0, -1, 0), radius=rd,
-                          material=1, name="back", motion=turn)])
+    walls = WallSet(closed_drum(rd, length, motion=turn, material=1))
     sim = Simulation([soil(), steel()], Interaction(restitution=0.5, static_friction=0.5,
                                                 rolling_friction=0.05),
                      walls=walls, threads=1)

@@ -214,7 +214,7 @@ def test_translating_walls_placed_in_the_compiled_loop_as_from_python(backend, m
     fast = _lifted_cylinder(backend)
     fast.run(duration=0.1)
     assert fast.walls.time == pytest.approx(fast.time)
-    monkeypatch.setattr(WallTable, "translations", lambda self: None)
+    monkeypatch.setattr(WallTable, "compiled_motions", lambda self: None)
     slow = _lifted_cylinder(backend)
     slow.run(duration=0.1)
     for name in ("positions", "velocities", "angular_momenta"):
@@ -238,17 +238,12 @@ def test_translating_walls_split_between_threads(backend):
 def _drum(backend, turning=True, threads=None, n=200):
     """A horizontal drum (a closed cylinder about the y axis, about 40 % full) of ``n``
     spheres turning at 2 rad/s after 0.02 s (or standing still)."""
-    from demcal.geometry import Cylinder, Disk, Static
+    from demcal.geometry import Static, closed_drum
 
     rd, length = 9 * RADIUS, 8 * RADIUS
     turn = (Rotation(point=(0, 0, 0), axis=(0, 1, 0), angular_speed=2.0, start=0.02)
             if turning else Static())
-    walls = WallSet([Cylinder(base=(0, -length / 2, 0), axis=(0, 1, 0), radius=rd,
-                              length=length, material=1, name="drum", motion=turn),
-                     Disk(centre=(0, -length / 2, 0), normal=(0, 1, 0), radius=rd,
-                          material=1, name="front", motion=turn),
-                     Disk(centre=(0, length / 2, 0), normal=(0, -1, 0), radius=rd,
-                          material=1, name="back", motion=turn)])
+    walls = WallSet(closed_drum(rd, length, motion=turn, material=1))
     sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.5,
                                                     rolling_friction=0.05),
                      walls=walls, backend=backend, threads=threads)
@@ -271,7 +266,7 @@ def test_rotating_walls_placed_in_the_compiled_loop_as_from_python(backend, monk
     # (measured: 4e-13 m after 1,491 steps).
     fast = _drum(backend)
     fast.run(duration=0.08)
-    monkeypatch.setattr(WallTable, "translations", lambda self: None)
+    monkeypatch.setattr(WallTable, "compiled_motions", lambda self: None)
     slow = _drum(backend)
     slow.run(duration=0.08)
     assert np.array_equal(fast.walls.params, slow.walls.params)
@@ -292,7 +287,7 @@ def test_rotating_wall_matches_the_motion(backend):
     sim = _drum(backend)
     sim.run(duration=0.05)
     w = sim.walls
-    s = w.rows_of("front")
+    s = w.rows_of("drum-front")
     rot, trans = w.walls[1].motion.transform(sim.time)
     ref = transform_rows(w.kind[s], w._ref_params[s], rot, trans)
     assert np.allclose(w.params[s], ref, rtol=0, atol=1e-15)

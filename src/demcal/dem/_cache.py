@@ -29,8 +29,12 @@ import sys
 from pathlib import Path
 
 _HERE = Path(__file__).resolve().parent
-# the modules holding compiled code, and the constants they import
+# the modules holding compiled code, the constants they import, and the named tuples
+# the compiled step loop takes (numba's cache index pickles their classes by name: an
+# index naming a class that is gone cannot even be read, so it must be cleared)
 _SOURCES = [_HERE / "forces.py", _HERE / "integrator.py", _HERE / "neighbours.py",
+            _HERE / "stepper.py", _HERE / "storage.py", _HERE / "walltable.py",
+            _HERE / "backend.py",
             *(_HERE / "contact").glob("*.py"),
             _HERE.parent / "geometry" / "kernels.py",
             _HERE.parent / "geometry" / "placement.py",

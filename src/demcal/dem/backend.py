@@ -144,7 +144,7 @@ class CpuBackend:
         """Up to ``nsteps`` steps in one compiled call (:mod:`demcal.dem.stepper`), on
         numba's threads when the particles are split between threads."""
         args = (nsteps, params, store.bodies, store.spheres, store.pairs, store.walls,
-                walls, _stepper.Translations(*motions))
+                walls, _stepper.WallMotions(*motions))
         if not self.split(store.bodies.n):
             return _stepper.run_steps(*args)
         h = self.halo_index(store)

@@ -78,7 +78,7 @@ def _random_quaternions(n, rng):
                      b * np.sin(2 * np.pi * u3), b * np.cos(2 * np.pi * u3)], axis=1)
 
 
-def _template(template, radii, scales, positions_n):
+def _template(template, radii, scales):
     """(template, scales) from ``template`` or ``radii``."""
     if radii is not None:
         if template is not None or scales is not None:
@@ -133,7 +133,7 @@ def batch(material_index, template=None, positions=None, orientations=None, scal
     if pos.ndim != 2 or pos.shape[1] != 3 or not np.all(np.isfinite(pos)):
         raise ConfigError("positions must be an (n, 3) array of finite numbers [m].")
     n = pos.shape[0]
-    tpl, scales = _template(template, radii, scales, n)
+    tpl, scales = _template(template, radii, scales)
     t_radii = np.asarray(tpl.radii, dtype=float).reshape(-1)
     centers = np.asarray(tpl.centers, dtype=float).reshape(-1, 3)
     ipd = np.asarray(tpl.inertia_per_density, dtype=float).reshape(3)

@@ -47,8 +47,8 @@ class StepParams(NamedTuple):
     travel_per_step: float
 
 
-class Translations(NamedTuple):
-    """The walls the compiled loop places itself (``WallSet.translations``): a flag per
+class WallMotions(NamedTuple):
+    """The walls the compiled loop places itself (``WallSet.compiled_motions``): a flag per
     row (:mod:`demcal.geometry.placement`), a translation's velocity [m/s], start and
     stop times [s], the reference rows, and a rotation's unit axis, point [m] and rate
     [rad/s]."""
@@ -71,7 +71,7 @@ def run_steps(nsteps, params, bodies, spheres, pairs, wcontacts, walls, motions)
     ``params`` is a :class:`StepParams`; ``bodies``, ``spheres``, ``pairs`` and
     ``wcontacts`` are the store's containers (:mod:`demcal.dem.storage`), ``walls`` the
     engine's wall rows (:class:`demcal.dem.walltable.WallRows`) and ``motions`` the
-    walls this loop places itself (:class:`Translations`): those flagged in ``tflag``
+    walls this loop places itself (:class:`WallMotions`): those flagged in ``tflag``
     are placed at each step's time by
     :func:`~demcal.geometry.placement.place_moving`; the others keep their
     geometry.

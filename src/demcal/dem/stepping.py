@@ -96,7 +96,7 @@ def advance(sim, nsteps: int) -> None:
     done = 0
     per_step = None  # wall travel per step [m]; the bound moves with the spheres
     while done < nsteps:
-        moves = walls.translations()
+        moves = walls.compiled_motions()
         if moves is None:
             # a moving wall: one step at a time, the walls placed before each force
             disp = sim._backend.drift(dt, store)

@@ -97,16 +97,16 @@ class WallTable:
         for key in ("params", "velocity", "omega", "origin", "aabb"):
             getattr(self.rows, key)[...] = getattr(w, key)
 
-    def translations(self):
+    def compiled_motions(self):
         """The compiled loop's table of walls it places itself (constant-velocity
-        translations and constant-rate rotations, ``WallSet.translations``), or None
+        translations and constant-rate rotations, ``WallSet.compiled_motions``), or None
         when some moving wall must be placed from Python before every step (a function
         of time)."""
         w = self.walls
         nw = self.rows.n
         if (self.moving and w is not None
                 and any(g.motion.moving for g in getattr(w, "walls", ()))):
-            return w.translations() if hasattr(w, "translations") else None
+            return w.compiled_motions() if hasattr(w, "compiled_motions") else None
         return (np.zeros(nw, np.int64), np.zeros((nw, 3)), np.zeros(nw), np.zeros(nw),
                 np.zeros((nw, 16)), np.zeros((nw, 3)), np.zeros((nw, 3)), np.zeros((nw, 3)),
                 np.zeros(nw))

@@ -18,12 +18,13 @@ from demcal.geometry.kernels import (
     wall_distance,
 )
 from demcal.geometry.motion import FunctionMotion, Motion, Rotation, Static, Translation
-from demcal.geometry.walls import Box, Cone, Cylinder, Disk, Funnel, Plane, Rect, TriangleMesh, Wall
+from demcal.geometry.walls import (Box, Cone, Cylinder, Disk, Funnel, Plane, Rect, TriangleMesh, Wall,
+                                   closed_drum)
 from demcal.geometry.wallset import WallSet
 
 __all__ = [
     "PLANE", "DISK", "CYLINDER", "CONE", "RECT", "TRIANGLE", "PARAM_WIDTH", "wall_distance",
     "Motion", "Static", "Translation", "Rotation", "FunctionMotion",
     "Wall", "Plane", "Disk", "Cylinder", "Cone", "Funnel", "Rect", "Box", "TriangleMesh",
-    "WallSet",
+    "WallSet", "closed_drum",
 ]

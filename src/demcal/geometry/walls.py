@@ -475,6 +475,21 @@ _STL_HEADER = 84   # binary STL: 80-byte header + uint32 triangle count
 _STL_RECORD = 50   # binary STL: normal and three corners (12 float32) + uint16
 
 
+def closed_drum(radius, length, motion=None, material=0, name="drum") -> list:
+    """A closed drum about the y axis, centred on the origin: its shell (a
+    :class:`Cylinder` called ``name``, ``radius`` and ``length`` [m]) and two end
+    :class:`Disk` walls (``name``-front, ``name``-back), all moved by ``motion`` (e.g. a
+    :class:`~demcal.geometry.motion.Rotation` about the y axis through the origin).
+    Returns the three walls, for a :class:`~demcal.geometry.WallSet`."""
+    half = 0.5 * _positive(length, f"{name} length")
+    return [Cylinder(base=(0, -half, 0), axis=(0, 1, 0), radius=radius, length=2 * half,
+                     material=material, name=name, motion=motion),
+            Disk(centre=(0, -half, 0), normal=(0, 1, 0), radius=radius, material=material,
+                 name=f"{name}-front", motion=motion),
+            Disk(centre=(0, half, 0), normal=(0, -1, 0), radius=radius, material=material,
+                 name=f"{name}-back", motion=motion)]
+
+
 def _read_stl(data: bytes, path: str) -> np.ndarray:
     """Triangles ``(m, 3, 3)`` of an ASCII or binary STL file (read by numpy-stl, every
     solid of an ASCII file); a :class:`DataError` naming the problem otherwise."""

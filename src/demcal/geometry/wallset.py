@@ -110,7 +110,7 @@ class WallSet:
     def n_groups(self) -> int:
         return len(self.walls)
 
-    def translations(self):
+    def compiled_motions(self):
         """The moving rows the engine's compiled step loop places itself at every step
         (:func:`demcal.geometry.placement.place_moving`): those of walls that move by a
         :class:`~demcal.geometry.motion.Translation` or a
