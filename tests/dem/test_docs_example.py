@@ -60,11 +60,12 @@ def _code_defaults():
             ("Simulation.", _signature_defaults(Simulation.__init__)),
             ("Simulation.add_particles.", _signature_defaults(Simulation.add_particles)),
             ("GravityRotation.", _signature_defaults(GravityRotation.__init__)),
-            ("GravityRamp.", _signature_defaults(GravityRamp.__init__))):
+            ("GravityRamp.", _signature_defaults(GravityRamp.__init__)),
+            # Interaction's own constructor (it also takes the sub-models' coefficients)
+            ("Interaction.", _signature_defaults(Interaction.__init__))):
         out.update({prefix + k: v for k, v in values.items()})
-    for cls in (Interaction, Material):
-        out.update({f"{cls.__name__}.{f.name}": f.default for f in dataclasses.fields(cls)
-                    if f.default is not dataclasses.MISSING})
+    out.update({f"Material.{f.name}": f.default for f in dataclasses.fields(Material)
+                if f.default is not dataclasses.MISSING})
     for name in ("overlap_tolerance", "sort_threshold", "sort_interval"):
         out["Simulation." + name] = getattr(Simulation, name)
     # the threads' own default, which sim.parallel_threshold reads and sets
@@ -91,6 +92,13 @@ def test_engine_docs_point_at_no_missing_file(needle):
 def test_docs_backend_example_runs():
     # docs/dem.md, "What a backend implements": a backend plugged in by name runs
     text = DOC.read_text(encoding="utf-8").split("### What a backend implements", 1)[1]
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    exec(compile(code, str(DOC), "exec"), {})
+
+
+def test_docs_sub_model_example_runs():
+    # docs/dem.md, "What a contact sub-model declares"
+    text = DOC.read_text(encoding="utf-8").split("### What a contact sub-model declares", 1)[1]
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     exec(compile(code, str(DOC), "exec"), {})
 

@@ -72,6 +72,7 @@ from demcal.dem.contact.kernel import HIST_WIDTH, H_DELTA0, contact
 from demcal.dem.contact.registry import DAMPING, NORMAL, ROLLING, TANGENTIAL
 from demcal.geometry import Cylinder, WallSet
 from demcal.geometry.motion import Rotation
+from demcal.dem.contact.table import pair_table
 from demcal.particles.materials import Interaction, MaterialTable
 
 from dem_helpers import SOFT, SOFT_WALL, floor
@@ -191,7 +192,7 @@ def test_type_c_first_step_torque():
     spring = -k_r * w_t * dt
     m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
     out = contact(NORMAL["hertz"], DAMPING["tsuji"], TANGENTIAL["mindlin"], ROLLING["type_c"],
-                  MaterialTable([SOFT], INTER).table, 0, 0, np.zeros((1, HIST_WIDTH)), 0,
+                  pair_table(MaterialTable([SOFT], INTER)), 0, 0, np.zeros((1, HIST_WIDTH)), 0,
                   DELTA, *N, *(APPROACH - V_J), *W_I, *W_J, R_I - DELTA / 2,
                   R_J - DELTA / 2, r_eff, m_eff, inv_ir, dt)
     assert np.array(out[3:6]) == pytest.approx(spring - c_r * w_t, rel=REL)
@@ -258,7 +259,7 @@ def test_cdt_hysteretic_spring_takes_k1_delta():
     torques = {}
     for rolling in ("cdt", "type_a"):
         out = contact(NORMAL["hysteretic"], DAMPING["hysteretic"], TANGENTIAL["linear"],
-                      ROLLING[rolling], mats.table, 0, 0, hist, 0, DELTA, *N, *v_r, *W_I,
+                      ROLLING[rolling], pair_table(mats), 0, 0, hist, 0, DELTA, *N, *v_r, *W_I,
                       *W_J, lever_i, R_J - DELTA / 2, r_eff, m_eff, 0.0, 1e-7)
         torques[rolling] = np.array(out[3:6])
     fs = k2 * (DELTA - delta0)

@@ -66,12 +66,15 @@ from typing import Any, Callable, Mapping
 import numpy as np
 
 from demcal.bench.registry import RunResult, Setting, resolve_settings
+from demcal.dem.contact.registry import preset_names, rolling_names
+from demcal.dem.contact.table import coefficient_names, declared_coefficient
 from demcal.errors import ConfigError, SimulationError
 from demcal.geometry.motion import Motion
 
 PROFILES = ("tiny", "quick", "paper")
-CONTACT_MODELS = ("hysteretic_spring", "hertz_mindlin", "linear")
-ROLLING_MODELS = ("type_a", "cdt", "type_c", "none")
+#: the contact-model presets and rolling models the engine declares
+CONTACT_MODELS = preset_names()
+ROLLING_MODELS = rolling_names()
 SHAPES = ("two-sphere", "sphere")
 
 #: Gravitational acceleration [m/s2].
@@ -85,26 +88,49 @@ def per_profile(profile: str, tiny, quick, paper):
 
 #: Unit and allowed range of each material and interaction property; the same for the
 #: particles (``particle.*``), the steel walls (``wall.*``) and the film (``film.*``).
+#: The interaction coefficients' come from the contact sub-models' declarations
+#: (:mod:`demcal.dem.contact.declare`, ``Coefficient.bench``).
 PROPERTY_RANGES = {
     "density": ("kg/m3", 100.0, 20000.0),
     "shear_modulus": ("Pa", 1.0e4, 1.0e11),
     "poisson_ratio": ("-", 0.0, 0.499),
     "yield_strength": ("Pa", 1.0e3, 1.0e10),
-    "restitution": ("-", 0.01, 1.0),
-    "static_friction": ("-", 0.0, 2.0),
-    "rolling_friction": ("-", 0.0, 1.0),
-    "damping_factor": ("-", 0.0, 2.0),
-    "stiffness_factor": ("-", 0.01, 10.0),
+    **{name: (declared_coefficient(name).unit, *declared_coefficient(name).bench_range)
+       for name in coefficient_names()},
 }
 
 
-def property_settings(prefix: str, rows) -> list[Setting]:
+#: the interaction coefficients every test sets out itself (a pair without its own
+#: stiffness factor takes the particles', see :func:`interaction`)
+OWN_COEFFICIENTS = ("restitution", "static_friction", "rolling_friction", "damping_factor",
+                    "stiffness_factor")
+
+
+def declared_settings(prefix: str, who: str) -> list[Setting]:
+    """``prefix.<name>`` for every other interaction coefficient a contact sub-model
+    declares, at the declared default: a sub-model added to the engine is a bench
+    setting at once."""
+    out = []
+    for name in coefficient_names():
+        if name in OWN_COEFFICIENTS:
+            continue
+        c = declared_coefficient(name)
+        unit, low, high = PROPERTY_RANGES[name]
+        out.append(Setting(f"{prefix}.{name}", c.default, unit,
+                           f"{who} {c.doc} (the sub-model's default)", low, high))
+    return out
+
+
+def property_settings(prefix: str, rows, who: str | None = None) -> list[Setting]:
     """Settings ``prefix.<property>`` from ``(property, default, help)`` rows, with the
-    unit and range of :data:`PROPERTY_RANGES`."""
+    unit and range of :data:`PROPERTY_RANGES`; with ``who`` (the pair, in words), also
+    the other declared interaction coefficients (:func:`declared_settings`)."""
     out = []
     for prop, default, text in rows:
         unit, low, high = PROPERTY_RANGES[prop]
         out.append(Setting(f"{prefix}.{prop}", default, unit, text, low, high))
+    if who is not None:
+        out += declared_settings(prefix, who)
     return out
 
 
@@ -122,12 +148,12 @@ def material_settings(film: bool = False) -> list[Setting]:
          "(paper Table 3 centre)"),
         ("damping_factor", 0.1, "Hysteretic Spring damping factor zeta (paper Table 3 centre)"),
         ("stiffness_factor", 0.95, "Hysteretic Spring stiffness factor xi, k_t = xi K1 (paper Table 2)"),
-    ]) + property_settings("wall", [
+    ], who="particle-particle") + property_settings("wall", [
         ("restitution", 0.5, "particle-steel restitution (our choice)"),
         ("static_friction", 0.6, "particle-plate static friction (our choice: a rough plate)"),
         ("rolling_friction", 0.3, "particle-plate rolling friction (our choice: a rough plate)"),
         ("damping_factor", 0.1, "particle-steel damping factor (our choice)"),
-    ]) + [
+    ], who="particle-steel") + [
         Setting("contact.model", "hysteretic_spring", "-", "contact model", choices=CONTACT_MODELS),
         Setting("rolling.model", "type_a", "-", "rolling resistance model", choices=ROLLING_MODELS),
     ]
@@ -142,7 +168,7 @@ def material_settings(film: bool = False) -> list[Setting]:
             ("shear_modulus", 1.0e8, "film shear modulus (polyethylene)"),
             ("poisson_ratio", 0.4, "film Poisson ratio (polyethylene)"),
             ("yield_strength", 1.0e7, "film yield strength (polyethylene)"),
-        ])
+        ], who="particle-film")
     return s
 
 
@@ -230,11 +256,14 @@ def interaction(s: Mapping[str, Any], prefix: str, stiffness_key: str | None = N
     from demcal.particles.materials import Interaction
 
     xi = s.get(f"{prefix}.stiffness_factor", s["particle.stiffness_factor"])
+    # the other coefficients the sub-models declare (rolling damping, ...)
+    others = {name: s[f"{prefix}.{name}"] for name in coefficient_names()
+              if name not in OWN_COEFFICIENTS and f"{prefix}.{name}" in s}
     return Interaction(restitution=s[f"{prefix}.restitution"],
                        static_friction=s[f"{prefix}.static_friction"],
                        rolling_friction=s[f"{prefix}.rolling_friction"],
                        damping_factor=s[f"{prefix}.damping_factor"],
-                       stiffness_factor=xi)
+                       stiffness_factor=xi, **others)
 
 
 def count_of(s: Mapping[str, Any]) -> int:

@@ -68,7 +68,7 @@ def _old_format(z):
         for d in (fields["pairs"], fields["walls"]):
             d["out"] = np.zeros((d["hist"].shape[0], OUT_WIDTH))
             if "act" not in d:
-                d["act"] = d["hist"][:, 7] != 0.0
+                d["act"] = d["hist"][:, 7] != 0.0   # the flag column of format 1
         scalars["forces_valid"] = 0.0
     return fields, scalars
 

@@ -20,6 +20,7 @@ from demcal.particles.materials import MaterialTable
 from .backend import BACKENDS
 from .checks import is_integer, is_real, positive
 from .contact.registry import ContactModel
+from .contact.table import pair_table
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,7 @@ def describe(materials, interactions, dt=None, contact_model="hertz_mindlin",
         raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
     return Description(material_table=table, contact_model=model,
                        models=np.array(model.ids(), dtype=np.int64),
-                       table=np.ascontiguousarray(table.table),
+                       table=np.ascontiguousarray(pair_table(table)),
                        dt=None if dt is None else float(dt),
                        dt_fraction=float(dt_fraction), impact_speed=impact_speed,
                        skin=skin, domain=dom, threads=int(threads), backend=backend)

@@ -32,10 +32,11 @@ from numba import njit
 
 from demcal.geometry.kernels import wall_distance
 
-from .contact.kernel import HIST_WIDTH, contact, reset_history, store_history
+from .contact.kernel import contact, reset_history, store_history
 from .contact.llvm_math import sqrt
-from .contact.registry import (LOOP_FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD,
-                               ROLLING_RELATIVE)
+from .contact.normal import reach
+from .contact.registry import (H_FLAG, HIST_WIDTH, LOOP_FASTMATH, ROLLING_CONSTANT,
+                               ROLLING_EPSD, ROLLING_RELATIVE)
 
 ACC_WIDTH = 6        # sacc columns: force on the sphere (3), torque on its body (3)
 PAIR_OUT_WIDTH = 3   # pair_out columns: force on i
@@ -140,7 +141,12 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             dz = zi - zj
             rs = ri + rj
             d2 = dx * dx + dy * dy + dz * dz
-            if d2 >= rs * rs:
+            # a contact that held at the last step stays while the gap is within the
+            # normal sub-model's reach (0 for all but the cohesive ones)
+            lim = rs
+            if active[p]:
+                lim = rs + reach(normal, table, mati, bmat[sbody[j]], ri * rj / rs)
+            if d2 >= lim * lim:
                 if not halo:
                     if not here:
                         reset_history(deferred, k)
@@ -221,7 +227,7 @@ def commit_deferred(hist, active, deferred, halo_slot, halo_deferred, t0, t1):
         k = halo_deferred[t]
         for c in range(HIST_WIDTH):
             hist[p, c] = deferred[k, c]
-        active[p] = deferred[k, 7] != 0.0
+        active[p] = deferred[k, H_FLAG] != 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
@@ -251,7 +257,8 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             w = wid[q]
             d, nx, ny, nz = wall_distance(wkind[w], wparams[w], xi, yi, zi)
             delta = ri - d
-            if delta <= 0.0:
+            if delta <= 0.0 and not (wactive[q] and
+                                     delta > -reach(normal, table, bmat[bi], wmat[w], ri)):
                 if wactive[q]:
                     reset_history(whist, q)
                     wactive[q] = False

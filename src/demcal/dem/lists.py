@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import neighbours as _nl
-from .contact.kernel import HIST_WIDTH
+from .contact.registry import H_FLAG, HIST_WIDTH
 from .forces import OUT_WIDTH, PAIR_OUT_WIDTH
 from .storage import ContactList, Store
 
@@ -71,7 +71,7 @@ class ListBuilder:
             run(nb, _nl.carry_history, ns, start, new_p.other, new_p.hist, old_p.start,
                 old_p.other, old_p.hist, old_of_new, True)
             run(nb, _nl.touching_last, ns, start, new_p.other, new_p.hist)
-        new_p.act[:npair] = new_p.hist[:npair, 7] != 0.0
+        new_p.act[:npair] = new_p.hist[:npair, H_FLAG] != 0.0
         new_p.act[npair:] = False
         self._spare = old_p if old_p.capacity >= cap else None
         # walls
@@ -90,7 +90,7 @@ class ListBuilder:
             self.backend.map_range(nb, _nl.carry_history, ns, wstart, new_q.other,
                                    new_q.hist, old_q.start, old_q.other, old_q.hist,
                                    old_of_new, False)
-        new_q.act[:nq] = new_q.hist[:nq, 7] != 0.0
+        new_q.act[:nq] = new_q.hist[:nq, H_FLAG] != 0.0
         store.pairs, store.walls = new_p, new_q
         s.ref[:] = s.pos
         self.backend.lists_changed()

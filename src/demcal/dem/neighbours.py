@@ -27,6 +27,8 @@ from numba import njit
 
 from demcal.geometry.kernels import wall_distance
 
+from .contact.registry import H_FLAG, VECTOR_COLUMNS
+
 
 @njit(cache=True, error_model="numpy")
 def build_cells(spos, srad, skin, max_cells):
@@ -157,9 +159,10 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
     ``old_of_new[i]`` is the old index of new sphere i (-1 for a new sphere). Pair lists
     (``remap`` true): pair (i, j), i < j, was the pair of the old spheres
     ``oi = old_of_new[i]`` and ``oj = old_of_new[j]``, listed in old row ``min(oi, oj)``.
-    When a reordering swapped the two sides (``oi > oj``), the vector entries of the row,
-    which belong to side i (tangential displacement of i against j, rolling spring torque
-    on i), change sign; the residual overlap and the contact flag do not. Wall lists
+    When a reordering swapped the two sides (``oi > oj``), the vector entries of the row
+    (``VECTOR_COLUMNS``, the fields the sub-models declare as vectors of side i:
+    tangential displacement of i against j, rolling spring torque on i), change sign;
+    the scalars (residual overlap) and the contact flag do not. Wall lists
     (``remap`` false): the entries are wall rows, matched as they are.
     """
     w = new_hist.shape[1]
@@ -185,7 +188,7 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
                 for k in range(w):
                     new_hist[p, k] = old_hist[found, k]
                 if swapped:
-                    for k in (0, 1, 2, 4, 5, 6):
+                    for k in VECTOR_COLUMNS:
                         new_hist[p, k] = -new_hist[p, k]
             else:
                 for k in range(w):
@@ -195,7 +198,7 @@ def carry_history(new_start, new_nbr, new_hist, old_start, old_nbr, old_hist, ol
 @njit(cache=True, nogil=True, error_model="numpy")
 def touching_last(row_start, nbr, hist, lo, hi):
     """Reorder each row of [lo, hi) so that the slots flagged as touching
-    (``hist[p, 7]``) come after the others, each group keeping its order (ascending j);
+    (``hist[p, H_FLAG]``) come after the others, each group keeping its order (ascending j);
     the history moves along.
 
     The pair loop branches on whether a slot touches; grouped, the branch changes
@@ -212,7 +215,7 @@ def touching_last(row_start, nbr, hist, lo, hi):
         n = 0       # touching slots set aside
         m = a       # next place for a slot that does not touch
         for p in range(a, b):
-            if hist[p, 7] != 0.0:
+            if hist[p, H_FLAG] != 0.0:
                 if n == keep_j.shape[0]:
                     keep = np.concatenate((keep, np.empty((n, w))))
                     keep_j = np.concatenate((keep_j, np.empty(n, np.int64)))

@@ -24,6 +24,7 @@ from . import insertion as _insertion
 from . import stepping as _stepping
 from . import timestep as _ts
 from .backend import BACKENDS
+from .contact.table import largest_reach
 from .description import describe
 from .gravity import GravitySchedule, ScheduleClock
 from .lists import ListBuilder
@@ -281,12 +282,22 @@ class Simulation:
 
     @property
     def skin(self) -> float:
-        """Neighbour skin [m]."""
-        if self.description.skin is not None:
-            return self.description.skin
+        """Neighbour skin [m]: the one given, or half the largest sphere radius; at least
+        twice the gap a cohesive contact holds across (its declared reach), since a
+        contact must stay in the lists until it opens."""
         if self.n_spheres == 0:
-            return 0.0
-        return 0.5 * float(self._store.spheres.radius.max())
+            return 0.0 if self.description.skin is None else self.description.skin
+        r_max = float(self._store.spheres.radius.max())
+        d = self.description
+        reach = largest_reach(d.models[0], d.table, r_max)
+        if d.skin is not None:
+            if reach > 0.0 and d.skin <= reach:
+                raise ConfigError(
+                    f"skin = {d.skin:.3g} m is not larger than the gap of {reach:.3g} m a "
+                    f"{d.contact_model.normal} contact holds across; use skin > "
+                    f"{reach:.3g} m or leave it unset.")
+            return d.skin
+        return max(0.5 * r_max, 2.0 * reach)
 
     # -- walls ------------------------------------------------------------------------
     def remove_wall(self, name: str) -> None:

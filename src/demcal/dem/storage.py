@@ -22,7 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .contact.kernel import HIST_WIDTH
+from .contact.registry import HIST_WIDTH
 from .forces import ACC_WIDTH, OUT_WIDTH, PAIR_OUT_WIDTH
 
 

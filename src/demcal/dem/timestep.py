@@ -2,18 +2,16 @@
 
 * Rayleigh time (EDEM manual; Li, Xu & Thornton 2005, Powder Technol. 160, 219-228):
   ``T_R = pi R sqrt(rho / G) / (0.1631 nu + 0.8766)`` for the smallest sphere.
-* Hertz contact duration of an elastic impact at speed v (Johnson 1985, Contact
-  Mechanics, section 11.4, Eq. 11.24): ``t_H = 2.9432 (15 m* / (16 E* sqrt(R*)))^(2/5)
-  v^(-1/5)`` where 2.9432 = 2 sqrt(pi) Gamma(7/5) / Gamma(9/10).
-* Linear / hysteretic spring: the contact lasts half a period of the stiffest branch,
-  ``t_s = pi sqrt(m* / K2)`` with ``K2 = K1 / e^2``, ``K1 = 5 R* Y_min``.
+* The contact duration t_c is the normal sub-model's declared rule
+  (``SubModel.contact_time``; :mod:`demcal.dem.contact.normal` gives each with its
+  source: Hertz impact duration, half a period of a spring's stiffest branch).
 
 The automatic step is ``min(fraction * T_R, t_c / 10)``, with t_c the shortest contact
 duration over all particle-particle and particle-wall material pairs, for the smallest
 particle, at the characteristic impact speed. A step is refused when it exceeds
-``min(T_R, t_c / 5)`` (Hertz) or ``t_c / 5`` (springs): fewer than five steps per
-contact is where velocity Verlet stops resolving a collision (it is unstable beyond
-``t_c / (pi/2)`` for a linear spring).
+``min(T_R, t_c / 5)`` (sub-models declared ``rayleigh_bound``, Hertz) or ``t_c / 5``
+(springs): fewer than five steps per contact is where velocity Verlet stops resolving a
+collision (it is unstable beyond ``t_c / (pi/2)`` for a linear spring).
 """
 
 import math
@@ -22,9 +20,8 @@ import numpy as np
 
 from demcal.errors import ConfigError
 
-from .contact.registry import NORMAL_HERTZ
-
-GAMMA_FACTOR = 2.0 * math.sqrt(math.pi) * math.gamma(1.4) / math.gamma(0.9)  # 2.9432
+from .contact.normal import hertz_contact_time, spring_contact_time  # noqa: F401
+from .contact.registry import submodel
 
 
 def rayleigh_time(radius, density, shear_modulus, poisson_ratio):
@@ -33,32 +30,16 @@ def rayleigh_time(radius, density, shear_modulus, poisson_ratio):
             / (0.1631 * poisson_ratio + 0.8766))
 
 
-def hertz_contact_time(m_eff, r_eff, estar, speed):
-    """Duration [s] of an elastic Hertz impact at relative speed ``speed`` (Johnson 1985)."""
-    return GAMMA_FACTOR * (15.0 * m_eff / (16.0 * estar * math.sqrt(r_eff))) ** 0.4 \
-        * speed ** -0.2
-
-
-def spring_contact_time(m_eff, stiffness):
-    """Half period pi sqrt(m*/k) [s] of a linear spring."""
-    return math.pi * math.sqrt(m_eff / stiffness)
-
-
 def contact_times(normal_model, table, particle_pairs, wall_pairs, speed):
-    """Shortest contact duration over the given material pairs.
+    """Shortest contact duration over the given material pairs, by the normal
+    sub-model's declared rule.
 
     ``particle_pairs`` / ``wall_pairs``: iterables of ``(mi, mj, r_eff, m_eff)``.
     """
-    from demcal.particles.materials import P_E, P_ESTAR, P_YMIN
+    rule = submodel("normal", normal_model).contact_time
     t = math.inf
     for mi, mj, r_eff, m_eff in list(particle_pairs) + list(wall_pairs):
-        p = table[mi, mj]
-        if normal_model == NORMAL_HERTZ:
-            tc = hertz_contact_time(m_eff, r_eff, p[P_ESTAR], speed)
-        else:
-            k2 = 5.0 * r_eff * p[P_YMIN] / p[P_E] ** 2
-            tc = spring_contact_time(m_eff, k2)
-        t = min(t, tc)
+        t = min(t, rule(table[mi, mj], r_eff, m_eff, speed))
     return t
 
 
@@ -71,7 +52,7 @@ def choose_dt(normal_model, t_rayleigh, t_contact, fraction):
 
 def stable_limit(normal_model, t_rayleigh, t_contact):
     """Largest accepted time step [s]."""
-    if normal_model == NORMAL_HERTZ:
+    if submodel("normal", normal_model).rayleigh_bound:
         return min(t_rayleigh, t_contact / 5.0)
     return t_contact / 5.0
 

@@ -108,7 +108,7 @@ class Material:
                    poisson_ratio=nu, yield_strength=yield_strength, name=name)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Interaction:
     """Contact properties of one material pair (EDEM's interaction table).
 
@@ -129,6 +129,11 @@ class Interaction:
     rolling_damping : float
         Viscous damping ratio eta_r of the elastic-plastic spring-dashpot rolling model
         (Ai et al. 2011, their Eq. 14), in [0, 1]; 0.3 as in their tests.
+    **coefficients : float
+        Coefficients of other contact sub-models, by the name the sub-model declares
+        (``surface_energy=0.05`` for JKR cohesion, say; the engine checks the name and
+        the range when it builds its pair table, :mod:`demcal.dem.contact.table`). A
+        sub-model's declared default applies where one is not given.
 
     Notes
     -----
@@ -142,31 +147,59 @@ class Interaction:
     table of defaults is in docs/dem.md.
     """
 
-    restitution: float = 0.6
-    static_friction: float = 0.4
-    rolling_friction: float = 0.2
-    damping_factor: float = 0.0
-    stiffness_factor: float = 0.95
-    rolling_damping: float = 0.3
+    restitution: float
+    static_friction: float
+    rolling_friction: float
+    damping_factor: float
+    stiffness_factor: float
+    rolling_damping: float
+    #: the other sub-models' coefficients, as sorted (name, value) pairs
+    coefficients: tuple
 
-    def __post_init__(self):
-        e = _finite(self.restitution, "restitution")
+    def __init__(self, restitution=0.6, static_friction=0.4, rolling_friction=0.2,
+                 damping_factor=0.0, stiffness_factor=0.95, rolling_damping=0.3,
+                 **coefficients):
+        e = _finite(restitution, "restitution")
         if not 0.0 < e <= 1.0:
             raise ConfigError(f"restitution must be in (0, 1], got {e}.")
-        for nm in ("static_friction", "rolling_friction", "damping_factor"):
-            v = _finite(getattr(self, nm), nm)
+        values = {"restitution": e}
+        for nm, v in (("static_friction", static_friction),
+                      ("rolling_friction", rolling_friction),
+                      ("damping_factor", damping_factor)):
+            v = _finite(v, nm)
             if v < 0:
                 raise ConfigError(f"{nm} must be >= 0, got {v}.")
-            object.__setattr__(self, nm, v)
-        xi = _finite(self.stiffness_factor, "stiffness_factor")
+            values[nm] = v
+        xi = _finite(stiffness_factor, "stiffness_factor")
         if xi <= 0:
             raise ConfigError(f"stiffness_factor must be > 0, got {xi}.")
-        eta = _finite(self.rolling_damping, "rolling_damping")
+        eta = _finite(rolling_damping, "rolling_damping")
         if not 0.0 <= eta <= 1.0:
             raise ConfigError(f"rolling_damping must be in [0, 1], got {eta}.")
-        object.__setattr__(self, "restitution", e)
-        object.__setattr__(self, "stiffness_factor", xi)
-        object.__setattr__(self, "rolling_damping", eta)
+        values.update(stiffness_factor=xi, rolling_damping=eta)
+        for nm, v in values.items():
+            object.__setattr__(self, nm, v)
+        extra = tuple(sorted((str(k), _finite(v, str(k))) for k, v in coefficients.items()))
+        object.__setattr__(self, "coefficients", extra)
+
+    def value(self, name: str, default=None):
+        """The coefficient called ``name`` (a field above or one of ``coefficients``),
+        ``default`` where this interaction does not give it."""
+        if name in _FIELDS:
+            return getattr(self, name)
+        return dict(self.coefficients).get(name, default)
+
+    def __getattr__(self, name):
+        # the other sub-models' coefficients read as attributes (it.surface_energy)
+        if name != "coefficients" and not name.startswith("__"):
+            for k, v in self.__dict__.get("coefficients", ()):
+                if k == name:
+                    return v
+        raise AttributeError(f"Interaction has no coefficient {name!r}")
+
+
+_FIELDS = ("restitution", "static_friction", "rolling_friction", "damping_factor",
+           "stiffness_factor", "rolling_damping")
 
 
 def soil(name: str = "soil") -> Material:
@@ -188,26 +221,12 @@ def steel(name: str = "steel") -> Material:
 
 
 # --------------------------------------------------------------------------------------
-# Pair table: the engine's flat array of per-material-pair constants.
+# Which interaction acts between which two materials (the engine lays the pair table
+# out from it: demcal.dem.contact.table).
 # --------------------------------------------------------------------------------------
-#: Column indices of :func:`pair_table` rows.
-P_ESTAR, P_GSTAR, P_BETA, P_E, P_MU_S, P_MU_R, P_YMIN, P_ZETA, P_XI, P_ETA_R = range(10)
-#: sqrt(St / Sn) = sqrt(4 G* / E*) of Hertz-Mindlin (saves a square root per contact)
-P_SQ_ST_SN = 10
-N_PAIR_PARAMS = 11
-
-
-def _beta(e: float) -> float:
-    """beta = ln e / sqrt(ln^2 e + pi^2) (Tsuji et al. 1992; EDEM manual)."""
-    if e >= 1.0:
-        return 0.0
-    le = math.log(e)
-    return le / math.sqrt(le * le + math.pi * math.pi)
-
-
 @dataclass
 class MaterialTable:
-    """Materials plus a complete interaction table, resolved to engine arrays.
+    """Materials plus a complete interaction table: :meth:`interaction` of every pair.
 
     Parameters
     ----------
@@ -220,7 +239,7 @@ class MaterialTable:
 
     materials: list
     interactions: object
-    table: np.ndarray = field(init=False)
+    pairs: list = field(init=False)
 
     def __post_init__(self):
         mats = self.materials
@@ -256,7 +275,7 @@ class MaterialTable:
                 pairs[(ib, ia)] = val
         else:
             raise ConfigError("interactions must be an Interaction or a dict of them.")
-        tab = np.zeros((n, n, N_PAIR_PARAMS))
+        table = [[None] * n for _ in range(n)]
         for i in range(n):
             for j in range(n):
                 it = pairs.get((i, j), default)
@@ -264,8 +283,12 @@ class MaterialTable:
                     raise ConfigError(
                         f"no interaction defined between materials {mats[i].name!r} and "
                         f"{mats[j].name!r}; add one or a 'default' interaction.")
-                tab[i, j] = pair_row(mats[i], mats[j], it)
-        self.table = tab
+                table[i][j] = it
+        self.pairs = table
+
+    def interaction(self, i: int, j: int) -> Interaction:
+        """The interaction between materials ``i`` and ``j`` (indices)."""
+        return self.pairs[i][j]
 
     def index(self, ref) -> int:
         """Index of a material given by index or name."""
@@ -283,26 +306,3 @@ class MaterialTable:
                     return k
         names = [m.name for m in self.materials]
         raise ConfigError(f"unknown material {ref!r}; known materials are {names}.")
-
-
-def pair_row(mi: Material, mj: Material, it: Interaction) -> np.ndarray:
-    """Engine constants for one material pair.
-
-    E* = [(1 - nu_i^2)/E_i + (1 - nu_j^2)/E_j]^-1 and
-    G* = [(2 - nu_i)/G_i + (2 - nu_j)/G_j]^-1 as in the EDEM manual (Hertz-Mindlin).
-    """
-    row = np.zeros(N_PAIR_PARAMS)
-    row[P_ESTAR] = 1.0 / ((1 - mi.poisson_ratio ** 2) / mi.youngs_modulus
-                          + (1 - mj.poisson_ratio ** 2) / mj.youngs_modulus)
-    row[P_GSTAR] = 1.0 / ((2 - mi.poisson_ratio) / mi.shear_modulus
-                          + (2 - mj.poisson_ratio) / mj.shear_modulus)
-    row[P_BETA] = _beta(it.restitution)
-    row[P_E] = it.restitution
-    row[P_MU_S] = it.static_friction
-    row[P_MU_R] = it.rolling_friction
-    row[P_YMIN] = min(mi.yield_strength, mj.yield_strength)
-    row[P_ZETA] = it.damping_factor
-    row[P_XI] = it.stiffness_factor
-    row[P_ETA_R] = it.rolling_damping
-    row[P_SQ_ST_SN] = math.sqrt(4.0 * row[P_GSTAR] / row[P_ESTAR])
-    return row

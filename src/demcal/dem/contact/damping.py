@@ -18,9 +18,27 @@ import math
 
 from numba import njit
 
-from .registry import DAMPING_HYSTERETIC, DAMPING_TSUJI, DAMPING_VISCOUS, FASTMATH
+from .declare import FASTMATH, SubModel
+from .pairs import BETA, DAMPING_FACTOR, RESTITUTION
+
+# ids of the damping slot
+DAMPING_NONE = 0
+DAMPING_TSUJI = 1        # EDEM Hertz-Mindlin: 2 sqrt(5/6) beta sqrt(Sn m*)
+DAMPING_HYSTERETIC = 2   # paper Eq. 3: 2 zeta beta sqrt(K m*)
+DAMPING_VISCOUS = 3      # linear spring-dashpot: 2 beta sqrt(k m*)
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
+
+MODELS = (
+    SubModel("damping", "none", DAMPING_NONE),
+    SubModel("damping", "tsuji", DAMPING_TSUJI, coefficients=(RESTITUTION,), constants=(BETA,),
+             source="Tsuji, Tanaka & Ishida 1992; EDEM Hertz-Mindlin"),
+    SubModel("damping", "hysteretic", DAMPING_HYSTERETIC,
+             coefficients=(RESTITUTION, DAMPING_FACTOR), constants=(BETA,),
+             source="Xie et al. 2020, Eq. 3; EDEM Hysteretic Spring"),
+    SubModel("damping", "viscous", DAMPING_VISCOUS, coefficients=(RESTITUTION,),
+             constants=(BETA,), source="linear spring-dashpot (Cundall & Strack 1979)"),
+)
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")

@@ -1,24 +1,27 @@
 """One contact, all four slots: the kernel the pair and wall drivers call.
 
-History row layout (``HIST_WIDTH`` float64 per contact): 0:3 tangential displacement
-[m], 3 residual overlap delta0 [m] (Hysteretic Spring), 4:7 rolling spring torque
-[N m] (type C), 7 contact flag (1 while touching: a rebuild carries only such rows).
+History row layout (``HIST_WIDTH`` float64 per contact), laid out by
+:mod:`.registry` from the declared fields: 0:3 tangential displacement [m], 3 residual
+overlap delta0 [m] (Hysteretic Spring), 4:7 rolling spring torque [N m] (type C), 7 the
+contact flag (1 while the contact holds: a rebuild carries only such rows).
 """
 
 from numba import njit
 
-from demcal.particles.materials import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR,
-                                        P_MU_R, P_MU_S, P_SQ_ST_SN, P_XI, P_YMIN, P_ZETA)
-
 from .damping import normal_damping
+from .declare import FASTMATH
 from .llvm_math import sqrt
-from .normal import loading_stiffness, normal_force, secant_force
-from .registry import FASTMATH, NORMAL_HERTZ, NORMAL_HYSTERETIC, TANGENTIAL_MINDLIN
+from .normal import critical_force, loading_stiffness, normal_force, secant_force
+from .pairs import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR, P_MU_R, P_MU_S, P_SQ_ST_SN,
+                    P_XI, P_YMIN, P_ZETA)
+from .registry import (H_FLAG, HIST_WIDTH, HISTORY_COLUMNS, NORMAL_HERTZ, NORMAL_HYSTERETIC,
+                       TANGENTIAL_MINDLIN)
 from .rolling import rolling_torque
 from .tangential import tangential_force, tangential_stiffness
 
-HIST_WIDTH = 8
-H_DELTA0 = 3
+H_SLIP = HISTORY_COLUMNS["tangential_displacement"]
+H_DELTA0 = HISTORY_COLUMNS["residual_overlap"]
+H_ROLL = HISTORY_COLUMNS["rolling_spring_torque"]
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
@@ -31,14 +34,14 @@ def reset_history(hist, h):
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def store_history(hist, h, s0, s1, s2, delta0, m0, m1, m2):
     """Write contact h's new history (as :func:`contact` returns it); mark it touching."""
-    hist[h, 0] = s0
-    hist[h, 1] = s1
-    hist[h, 2] = s2
+    hist[h, H_SLIP] = s0
+    hist[h, H_SLIP + 1] = s1
+    hist[h, H_SLIP + 2] = s2
     hist[h, H_DELTA0] = delta0
-    hist[h, 4] = m0
-    hist[h, 5] = m1
-    hist[h, 6] = m2
-    hist[h, 7] = 1.0
+    hist[h, H_ROLL] = m0
+    hist[h, H_ROLL + 1] = m1
+    hist[h, H_ROLL + 2] = m2
+    hist[h, H_FLAG] = 1.0
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
@@ -51,13 +54,14 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     ----------
     normal, damping, tangential, rolling : int
         Sub-model ids of the four slots, see ``registry``.
-    table : float64[nmat, nmat, N_PAIR_PARAMS]
-        Material-pair constants (``demcal.particles.materials.pair_table`` columns);
+    table : float64[nmat, nmat, ncolumns]
+        Material-pair constants (:mod:`.table`, columns ``pairs.P_*``);
         ``mi``, ``mj`` are the materials of the two sides.
     hist, h : history array and this contact's row (see the module docstring), read
         only: the caller stores the new history the kernel returns.
     delta : float
-        Overlap [m] > 0. ``n`` is the unit normal pointing from j to i.
+        Overlap [m]: > 0, or down to minus the normal sub-model's reach for one that
+        acts beyond touching. ``n`` is the unit normal pointing from j to i.
     vr : relative velocity of i with respect to j at the contact point [m/s].
     wi, wj : angular velocities [rad/s] (``wj`` of a wall: what its rolling model sees,
         see ``forces.wall_forces``). lever_i, lever_j: centre of mass to contact
@@ -100,14 +104,15 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     k1 = loading_stiffness(r_eff, ymin)
     kt, ct = tangential_stiffness(tangential, sq, m_eff, gstar, beta, k1, xi,
                                   sqkm if normal == NORMAL_HERTZ else 0.0, sq_st_sn)
-    ftx, fty, ftz, sx, sy, sz = tangential_force(kt, ct, hist[h, 0], hist[h, 1],
-                                                 hist[h, 2], nx, ny, nz, vtx, vty, vtz,
-                                                 dt, mu_s, fn)
-    fpos = fn if fn > 0.0 else 0.0
+    # the force that caps friction and rolling resistance (>= 0)
+    fc = critical_force(normal, fn, table, mi, mj, r_eff)
+    ftx, fty, ftz, sx, sy, sz = tangential_force(kt, ct, hist[h, H_SLIP], hist[h, H_SLIP + 1],
+                                                 hist[h, H_SLIP + 2], nx, ny, nz, vtx, vty,
+                                                 vtz, dt, mu_s, fc)
     fe = secant_force(normal, delta, fs, k1)
     kr = k if k > 0.0 else k1
     tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz = rolling_torque(
-        rolling, hist[h, 4], hist[h, 5], hist[h, 6], nx, ny, nz, wix, wiy, wiz, wjx, wjy,
-        wjz, lever_i, lever_j, r_eff, mu_r, fpos, fe, kr, eta_r, inv_ir, dt)
+        rolling, hist[h, H_ROLL], hist[h, H_ROLL + 1], hist[h, H_ROLL + 2], nx, ny, nz, wix,
+        wiy, wiz, wjx, wjy, wjz, lever_i, lever_j, r_eff, mu_r, fc, fe, kr, eta_r, inv_ir, dt)
     return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz,
             sx, sy, sz, d0, mx, my, mz)

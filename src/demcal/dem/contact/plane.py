@@ -3,7 +3,7 @@
 from numba import njit
 
 from .llvm_math import sqrt
-from .registry import FASTMATH
+from .declare import FASTMATH
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")

@@ -1,9 +1,11 @@
-"""Sub-model registry: names -> integer ids, one table per slot.
+"""Sub-model registry: every declared sub-model (:mod:`.declare`) by slot and name.
 
 A contact model is four sub-models in fixed slots (LAMMPS GRANULAR layout):
-``normal``, ``damping``, ``tangential`` and ``rolling``. Each slot maps names to small
-integers; the kernels dispatch once per slot on that integer, so adding a sub-model is
-one kernel branch plus one row here. Presets name common combinations.
+``normal``, ``damping``, ``tangential`` and ``rolling``. Each slot module lists its
+sub-models in ``MODELS``; this module collects them, maps names and aliases to the
+integer ids the kernels dispatch on, lays out the contact history from the declared
+fields and names the presets. Adding a sub-model is one kernel branch plus one
+``SubModel`` row in its slot module.
 """
 
 from __future__ import annotations
@@ -12,42 +14,64 @@ from dataclasses import dataclass
 
 from demcal.errors import ConfigError
 
-#: Floating-point licences of the contact kernels when compiled on their own: fused
-#: multiply-add, reciprocals, reassociation and signed zeros, but not "no NaN / no inf"
-#: (a blow-up must still propagate to the positions, where the step loop detects it).
-FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
-#: The contact loops (``dem/forces.py``), into which the kernels are inlined at numba IR
-#: level and whose flags therefore apply: fused multiply-add and reciprocals only, so
-#: that every sum keeps its order (results independent of the thread count).
-LOOP_FASTMATH = {"contract", "arcp"}
+from . import damping, normal, rolling, tangential
+from .damping import (DAMPING_HYSTERETIC, DAMPING_NONE, DAMPING_TSUJI,  # noqa: F401
+                      DAMPING_VISCOUS)
+from .declare import FASTMATH, LOOP_FASTMATH, SLOTS, SubModel  # noqa: F401
+from .normal import NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR  # noqa: F401
+from .rolling import (ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_NONE,  # noqa: F401
+                      ROLLING_RELATIVE)
+from .tangential import TANGENTIAL_LINEAR, TANGENTIAL_MINDLIN, TANGENTIAL_NONE  # noqa: F401
 
-# normal slot
-NORMAL_HERTZ = 0
-NORMAL_HYSTERETIC = 1
-NORMAL_LINEAR = 2
-# damping slot
-DAMPING_NONE = 0
-DAMPING_TSUJI = 1        # EDEM Hertz-Mindlin: 2 sqrt(5/6) beta sqrt(Sn m*)
-DAMPING_HYSTERETIC = 2   # paper Eq. 3: 2 zeta beta sqrt(K m*)
-DAMPING_VISCOUS = 3      # linear spring-dashpot: 2 beta sqrt(k m*)
-# tangential slot
-TANGENTIAL_NONE = 0
-TANGENTIAL_MINDLIN = 1   # St = 8 G* sqrt(R* delta), EDEM no-slip
-TANGENTIAL_LINEAR = 2    # kt = xi K1, paper Eq. 3
-# rolling slot
-ROLLING_NONE = 0
-ROLLING_CONSTANT = 1     # EDEM type A: -mu_r Fn R_i w_i/|w_i|
-ROLLING_RELATIVE = 2     # LIGGGHTS 3.8 cdt: -mu_r k_n delta R* w_t/|w_r|
-ROLLING_EPSD = 3         # EDEM type C, Ai et al. 2011
+#: every sub-model, by slot, in id order
+SUBMODELS: dict[str, tuple[SubModel, ...]] = {
+    "normal": normal.MODELS, "damping": damping.MODELS,
+    "tangential": tangential.MODELS, "rolling": rolling.MODELS}
 
-NORMAL = {"hertz": NORMAL_HERTZ, "hysteretic": NORMAL_HYSTERETIC, "linear": NORMAL_LINEAR}
-DAMPING = {"none": DAMPING_NONE, "tsuji": DAMPING_TSUJI,
-           "hysteretic": DAMPING_HYSTERETIC, "viscous": DAMPING_VISCOUS}
-TANGENTIAL = {"none": TANGENTIAL_NONE, "mindlin": TANGENTIAL_MINDLIN,
-              "linear": TANGENTIAL_LINEAR}
-ROLLING = {"none": ROLLING_NONE, "type_a": ROLLING_CONSTANT, "constant": ROLLING_CONSTANT,
-           "cdt": ROLLING_RELATIVE, "relative": ROLLING_RELATIVE,
-           "type_c": ROLLING_EPSD, "epsd": ROLLING_EPSD}
+
+def _names(slot: str) -> dict:
+    out = {}
+    for m in SUBMODELS[slot]:
+        for name in m.names:
+            out[name] = m.id
+    return out
+
+
+NORMAL = _names("normal")
+DAMPING = _names("damping")
+TANGENTIAL = _names("tangential")
+ROLLING = _names("rolling")
+
+
+def submodel(slot: str, ident: int) -> SubModel:
+    """The declaration of sub-model ``ident`` of ``slot``."""
+    for m in SUBMODELS[slot]:
+        if m.id == ident:
+            return m
+    raise KeyError(f"no {slot} sub-model with id {ident}")
+
+
+def _history_layout():
+    # the slots in the order their history has been laid out since checkpoint format 1
+    # (tangential displacement 0:3, residual overlap 3, rolling spring torque 4:7), so
+    # that old checkpoints keep their meaning; a new field goes after them
+    columns, vectors, col = {}, [], 0
+    for slot in ("tangential", "normal", "rolling", "damping"):
+        for m in SUBMODELS[slot]:
+            for f in m.history:
+                if f.name in columns:
+                    continue
+                columns[f.name] = col
+                if f.vector:
+                    vectors += [col, col + 1, col + 2]
+                col += f.width
+    return columns, tuple(vectors), col
+
+
+#: column of each declared history field; VECTOR_COLUMNS: the columns of the 3-vectors
+#: (negated when a reordering swaps a pair's sides); the contact flag comes last
+HISTORY_COLUMNS, VECTOR_COLUMNS, H_FLAG = _history_layout()
+HIST_WIDTH = H_FLAG + 1
 
 #: contact_model presets -> (normal, damping, tangential)
 PRESETS = {
@@ -56,6 +80,18 @@ PRESETS = {
     "hscm": ("hysteretic", "hysteretic", "linear"),
     "linear": ("linear", "viscous", "linear"),
 }
+#: other spellings of presets above
+PRESET_ALIASES = {"hscm": "hysteretic_spring"}
+
+
+def preset_names() -> tuple:
+    """The presets by their own names (no aliases)."""
+    return tuple(p for p in PRESETS if p not in PRESET_ALIASES)
+
+
+def rolling_names() -> tuple:
+    """The rolling sub-models by their own names (no aliases)."""
+    return tuple(m.name for m in SUBMODELS["rolling"])
 
 
 def _lookup(table: dict, name, parameter: str) -> int:
@@ -75,6 +111,8 @@ class ContactModel:
     damping : {"tsuji", "hysteretic", "viscous", "none"}
     tangential : {"mindlin", "linear", "none"}
     rolling : {"none", "type_a" (= "constant"), "cdt" (= "relative"), "type_c" (= "epsd")}
+
+    Each slot's names are those its module declares (``registry.SUBMODELS``).
     """
 
     normal: str = "hertz"
@@ -96,8 +134,29 @@ class ContactModel:
         return model
 
     def ids(self) -> tuple:
-        """Integer ids (normal, damping, tangential, rolling); ConfigError if unknown."""
-        return (_lookup(NORMAL, self.normal, "normal model"),
-                _lookup(DAMPING, self.damping, "damping model"),
-                _lookup(TANGENTIAL, self.tangential, "tangential model"),
-                _lookup(ROLLING, self.rolling, "rolling_model"))
+        """Integer ids (normal, damping, tangential, rolling); ConfigError (one sentence)
+        if a name is unknown or a sub-model does not fit with another (``requires``)."""
+        ids = (_lookup(NORMAL, self.normal, "normal model"),
+               _lookup(DAMPING, self.damping, "damping model"),
+               _lookup(TANGENTIAL, self.tangential, "tangential model"),
+               _lookup(ROLLING, self.rolling, "rolling_model"))
+        chosen = {slot: submodel(slot, i) for slot, i in zip(SLOTS, ids)}
+        for m in chosen.values():
+            for slot, fits in m.requires:
+                if chosen[slot].name not in fits:
+                    raise ConfigError(
+                        f"the {m.name} {m.slot} model does not fit with the "
+                        f"{chosen[slot].name} {slot} model; choose {slot} from "
+                        f"{list(fits)}.")
+        return ids
+
+    def submodels(self) -> tuple:
+        """The four declarations (normal, damping, tangential, rolling)."""
+        return tuple(submodel(slot, i) for slot, i in zip(SLOTS, self.ids()))
+
+    def coefficients(self) -> tuple:
+        """The interaction coefficients the four sub-models read, each once."""
+        out = []
+        for m in self.submodels():
+            out += [c for c in m.coefficients if c not in out]
+        return tuple(out)

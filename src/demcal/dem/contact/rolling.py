@@ -36,8 +36,32 @@ against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
 from numba import njit
 
 from .llvm_math import sqrt
+from .declare import FASTMATH, HistoryField, SubModel
+from .pairs import ROLLING_DAMPING, ROLLING_FRICTION
 from .plane import to_tangent_plane
-from .registry import FASTMATH, ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_RELATIVE
+
+# ids of the rolling slot
+ROLLING_NONE = 0
+ROLLING_CONSTANT = 1     # EDEM type A: -mu_r Fn R_i w_i/|w_i|
+ROLLING_RELATIVE = 2     # LIGGGHTS 3.8 cdt: -mu_r k_n delta R* w_t/|w_r|
+ROLLING_EPSD = 3         # EDEM type C, Ai et al. 2011
+
+#: the rolling spring torque [N m] on side i (type C)
+ROLLING_SPRING_TORQUE = HistoryField("rolling_spring_torque", "N m", vector=True)
+
+MODELS = (
+    SubModel("rolling", "none", ROLLING_NONE),
+    SubModel("rolling", "type_a", ROLLING_CONSTANT, aliases=("constant",),
+             coefficients=(ROLLING_FRICTION,),
+             source="Sakaguchi, Ozaki & Igarashi 1993; EDEM standard rolling friction"),
+    SubModel("rolling", "cdt", ROLLING_RELATIVE, aliases=("relative",),
+             coefficients=(ROLLING_FRICTION,),
+             source="LIGGGHTS-PUBLIC 3.8.0 rolling_model_cdt.h"),
+    SubModel("rolling", "type_c", ROLLING_EPSD, aliases=("epsd",),
+             coefficients=(ROLLING_FRICTION, ROLLING_DAMPING),
+             history=(ROLLING_SPRING_TORQUE,),
+             source="Ai, Chen, Rotter & Ooi 2011, model C; EDEM type C rolling friction"),
+)
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")

@@ -21,10 +21,31 @@ import math
 from numba import njit
 
 from .llvm_math import sqrt
+from .declare import FASTMATH, HistoryField, SubModel
+from .pairs import BETA, GSTAR, SQ_ST_SN, STATIC_FRICTION, STIFFNESS_FACTOR, YMIN
 from .plane import to_tangent_plane
-from .registry import FASTMATH, TANGENTIAL_LINEAR, TANGENTIAL_MINDLIN
+
+# ids of the tangential slot
+TANGENTIAL_NONE = 0
+TANGENTIAL_MINDLIN = 1   # St = 8 G* sqrt(R* delta), EDEM no-slip
+TANGENTIAL_LINEAR = 2    # kt = xi K1, paper Eq. 3
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
+
+#: the accumulated tangential displacement s [m] of side i
+TANGENTIAL_DISPLACEMENT = HistoryField("tangential_displacement", "m", vector=True)
+
+MODELS = (
+    SubModel("tangential", "none", TANGENTIAL_NONE),
+    SubModel("tangential", "mindlin", TANGENTIAL_MINDLIN,
+             coefficients=(STATIC_FRICTION,), constants=(GSTAR, BETA, SQ_ST_SN),
+             history=(TANGENTIAL_DISPLACEMENT,),
+             source="Mindlin 1949; EDEM Hertz-Mindlin (no slip)"),
+    SubModel("tangential", "linear", TANGENTIAL_LINEAR,
+             coefficients=(STATIC_FRICTION, STIFFNESS_FACTOR), constants=(YMIN, BETA),
+             history=(TANGENTIAL_DISPLACEMENT,),
+             source="Xie et al. 2020, Eq. 3; EDEM Hysteretic Spring stiffness factor"),
+)
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
