@@ -11,7 +11,8 @@ from numba import njit
 from .damping import normal_damping
 from .declare import FASTMATH
 from .llvm_math import sqrt
-from .normal import critical_force, loading_stiffness, normal_force, secant_force
+from .normal import (NORMAL_JKR, P_GAMMA, critical_force, jkr_radius, loading_stiffness,
+                     normal_force, secant_force)
 from .pairs import (P_BETA, P_E, P_ESTAR, P_ETA_R, P_GSTAR, P_MU_R, P_MU_S, P_SQ_ST_SN,
                     P_XI, P_YMIN, P_ZETA)
 from .registry import (H_FLAG, HIST_WIDTH, HISTORY_COLUMNS, NORMAL_HERTZ, NORMAL_HYSTERETIC,
@@ -88,11 +89,16 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     eta_r = table[mi, mj, P_ETA_R]
     delta0 = hist[h, H_DELTA0]
     vn = vrx * nx + vry * ny + vrz * nz
-    # sqrt(R* delta) is shared by the Hertz spring and the Mindlin tangential spring
+    # the contact radius (sqrt(R* delta) for Hertz) is shared by the normal spring and
+    # the Mindlin tangential spring
     sq = 0.0
-    if normal == NORMAL_HERTZ or tangential == TANGENTIAL_MINDLIN:
+    gamma = 0.0
+    if normal == NORMAL_JKR:
+        gamma = table[mi, mj, P_GAMMA]
+        sq = jkr_radius(delta, r_eff, estar, gamma)
+    elif normal == NORMAL_HERTZ or tangential == TANGENTIAL_MINDLIN:
         sq = sqrt(r_eff * delta)
-    fs, k, d0 = normal_force(normal, delta, delta0, r_eff, sq, estar, ymin, e)
+    fs, k, d0 = normal_force(normal, delta, delta0, r_eff, sq, estar, ymin, e, gamma)
     sqkm = sqrt(k * m_eff) if k > 0.0 else 0.0
     fd = normal_damping(damping, beta, zeta, sqkm, vn)
     fn = fs + fd
@@ -103,7 +109,8 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     vtz = vrz - vn * nz
     k1 = loading_stiffness(r_eff, ymin)
     kt, ct = tangential_stiffness(tangential, sq, m_eff, gstar, beta, k1, xi,
-                                  sqkm if normal == NORMAL_HERTZ else 0.0, sq_st_sn)
+                                  sqkm if normal == NORMAL_HERTZ or normal == NORMAL_JKR
+                                  else 0.0, sq_st_sn)
     # the force that caps friction and rolling resistance (>= 0)
     fc = critical_force(normal, fn, table, mi, mj, r_eff)
     ftx, fty, ftz, sx, sy, sz = tangential_force(kt, ct, hist[h, H_SLIP], hist[h, H_SLIP + 1],

@@ -79,6 +79,7 @@ PRESETS = {
     "hysteretic_spring": ("hysteretic", "hysteretic", "linear"),
     "hscm": ("hysteretic", "hysteretic", "linear"),
     "linear": ("linear", "viscous", "linear"),
+    "hertz_mindlin_jkr": ("jkr", "tsuji", "mindlin"),
 }
 #: other spellings of presets above
 PRESET_ALIASES = {"hscm": "hysteretic_spring"}
@@ -107,7 +108,7 @@ class ContactModel:
 
     Parameters
     ----------
-    normal : {"hertz", "hysteretic", "linear"}
+    normal : {"hertz", "hysteretic", "linear", "jkr"}
     damping : {"tsuji", "hysteretic", "viscous", "none"}
     tangential : {"mindlin", "linear", "none"}
     rolling : {"none", "type_a" (= "constant"), "cdt" (= "relative"), "type_c" (= "epsd")}
@@ -123,7 +124,8 @@ class ContactModel:
     @classmethod
     def preset(cls, contact_model: str = "hertz_mindlin",
                rolling_model: str = "type_a") -> "ContactModel":
-        """Build from a preset name (``hertz_mindlin``, ``hysteretic_spring``, ``linear``)."""
+        """Build from a preset name (``hertz_mindlin``, ``hysteretic_spring``, ``linear``,
+        ``hertz_mindlin_jkr``)."""
         key = contact_model.lower() if isinstance(contact_model, str) else contact_model
         if key not in PRESETS:
             raise ConfigError(
