@@ -329,6 +329,28 @@ def test_edem_tables_of_a_hertz_mindlin_material(sliding, capsys):
     assert "film,0.4,920,1e+08\n" in text
 
 
+def test_edem_tables_of_a_jkr_material(example, capsys):
+    # a cohesive soil: EDEM's Hertz-Mindlin with JKR Cohesion, the surface energies in the
+    # interaction table; LIGGGHTS 3.8 has no JKR, so its snippet says not transferable
+    path = example / "sliding.toml"
+    jkr = ('\n[experiment.settings]\n"contact.model" = "hertz_mindlin_jkr"\n'
+           '"particle.surface_energy" = 0.4\n"film.surface_energy" = 0.1\n'
+           '"particle.rolling_damping" = 0.2\n')
+    path.write_text(path.read_text().replace('profile = "quick"\n', 'profile = "quick"\n' + jkr, 1))
+    _calibrate(example, "sliding", SLIDING_CALIBRATION)
+    text = _export(capsys, "sliding.toml", "--format", "edem")
+    assert "base model Hertz-Mindlin with JKR Cohesion; rolling friction Standard Rolling Friction" in text
+    assert "NOT TRANSFERABLE" not in text
+    assert ",Coefficient of Rolling Friction,Surface Energy (J/m2)\n" in text
+    assert "particle,particle,0.6,0.4,0.2,0.4\n" in text and "particle,film,0.53,0.48,0.22,0.1\n" in text
+    card = _card(capsys, "sliding.toml", "--format", "json")
+    rows = {tuple(r["materials"]): r for r in card["conditions"][0]["interactions"]}
+    assert rows[("particle", "particle")]["rolling_damping"] == 0.2     # the setting, not a default
+    assert rows[("particle", "steel")]["surface_energy"] == 0.0
+    ligg = _export(capsys, "sliding.toml", "--format", "liggghts")
+    assert "has no JKR cohesion" in " ".join(line.lstrip("# ") for line in ligg.splitlines())
+
+
 # ---------------------------------------------------------------------------- the command
 
 

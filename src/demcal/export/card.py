@@ -31,7 +31,8 @@ Layout::
                     materials     particle, steel, film -> density, shear_modulus,
                                   poisson_ratio, youngs_modulus, yield_strength
                     interactions  [{materials, restitution, static_friction,
-                                  rolling_friction, damping_factor, stiffness_factor}]
+                                  rolling_friction, damping_factor, stiffness_factor,
+                                  rolling_damping, surface_energy}]
                     verification  the verification figures of calibration.json, as written
                     calibration   every other key of the condition in calibration.json, as written
     calibration     every top-level key of calibration.json but its conditions, as written
@@ -86,6 +87,7 @@ EDEM_CONTACT = {
                "demcal's linear spring (k = 5 R* Y, viscous damping, k_t = xi k) is not known to "
                "match the stiffness rule of EDEM's Linear Spring; recalibrate with "
                "contact.model = hertz_mindlin or hysteretic_spring"),
+    "hertz_mindlin_jkr": ("Hertz-Mindlin with JKR Cohesion", True, ""),
 }
 
 #: What a reader of the EDEM tables should know although the values carry over.
@@ -119,6 +121,11 @@ LIGGGHTS_CONTACT = {
     "linear": ("hertz tangential history", False,
                "LIGGGHTS 3.8 has no linear spring on the yield strength (k = 5 R* Y); recalibrate "
                "with contact.model = hertz_mindlin"),
+    "hertz_mindlin_jkr": ("hertz tangential history", False,
+                          "LIGGGHTS 3.8 has no JKR cohesion: its cohesion sjkr and sjkr2 add a force "
+                          "k A (a cohesion energy density [J/m3] times the contact area) while the "
+                          "particles overlap, a simplified law with no pull-off distance, so a surface "
+                          "energy does not carry over; recalibrate with contact.model = hertz_mindlin"),
 }
 
 #: demcal rolling model -> (LIGGGHTS 3.8 rolling_friction model, transferable, reason).
@@ -379,6 +386,7 @@ def interactions(parameters: Mapping[str, Mapping[str, Any]]) -> list[dict[str, 
 
     xi = _value(parameters, "particle.stiffness_factor")
     rolling_damping = Interaction().rolling_damping
+    surface_energy = Interaction().value("surface_energy", 0.0)
     out = []
     for other, prefix in (("particle", "particle"), ("steel", "wall"), ("film", "film")):
         if f"{prefix}.restitution" not in parameters:
@@ -387,7 +395,8 @@ def interactions(parameters: Mapping[str, Mapping[str, Any]]) -> list[dict[str, 
         for prop in ("restitution", "static_friction", "rolling_friction", "damping_factor"):
             row[prop] = _value(parameters, f"{prefix}.{prop}")
         row["stiffness_factor"] = _value(parameters, f"{prefix}.stiffness_factor", xi)
-        row["rolling_damping"] = rolling_damping
+        row["rolling_damping"] = _value(parameters, f"{prefix}.rolling_damping", rolling_damping)
+        row["surface_energy"] = _value(parameters, f"{prefix}.surface_energy", surface_energy)
         row["source"] = sorted({parameters[f"{prefix}.{p}"]["source"] for p in
                                 ("restitution", "static_friction", "rolling_friction")})
         out.append(row)

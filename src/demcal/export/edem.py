@@ -5,7 +5,7 @@ their EDEM names, for particle-to-particle and particle-to-geometry), the materi
 table (Poisson's ratio, solid density, shear modulus; yield strength for the
 Hysteretic Spring), the interaction table (coefficients of restitution, static and
 rolling friction; damping and stiffness factors for the Hysteretic Spring; rolling
-viscous damping for Type C), the particle (its spheres and the size distribution of
+viscous damping for Type C; surface energy for JKR cohesion), the particle (its spheres and the size distribution of
 the factory), then the lab record and the verification figures. Tables are CSV with
 EDEM's field names and units in the header, so they can also be read by a script.
 """
@@ -30,6 +30,7 @@ def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> st
     models = card["models"]
     hysteretic = code["contact_model"] == "Hysteretic Spring"
     type_c = code["rolling_model"] == "Type C Rolling Friction"
+    jkr = code["contact_model"] == "Hertz-Mindlin with JKR Cohesion"
     lines = [f"# demcal material card for EDEM: campaign '{camp['name']}', condition '{condition['name']}'",
              f"# campaign hash {camp['hash']}",
              f"# demcal {card['demcal_version']}; virtual test {camp['test']}, profile {camp['profile']}"]
@@ -65,6 +66,8 @@ def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> st
         header += ["Damping Factor", "Stiffness Factor"]
     if type_c:
         header.append("Rolling Viscous Damping Ratio")
+    if jkr:
+        header.append("Surface Energy (J/m2)")
     rows = []
     for r in condition["interactions"]:
         row = [*r["materials"], number(r["restitution"]), number(r["static_friction"]), number(r["rolling_friction"])]
@@ -72,6 +75,8 @@ def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> st
             row += [number(r["damping_factor"]), number(r["stiffness_factor"])]
         if type_c:
             row.append(number(r["rolling_damping"]))
+        if jkr:
+            row.append(number(r["surface_energy"]))
         rows.append(row)
     lines.append(_csv(header, rows))
     part = card["particle"]
