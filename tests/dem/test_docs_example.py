@@ -103,6 +103,17 @@ def test_docs_sub_model_example_runs():
     exec(compile(code, str(DOC), "exec"), {})
 
 
+def test_docs_bench_test_example_runs():
+    # docs/dem.md, "What a bench test implements"
+    from demcal.bench import registry
+    text = DOC.read_text(encoding="utf-8").split("### What a bench test implements", 1)[1]
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    try:
+        exec(compile(code, str(DOC), "exec"), {})
+    finally:
+        registry._REGISTRY.pop("rebound", None)
+
+
 def test_importing_the_engine_touches_no_file():
     # the numba cache guard is an explicit call made by the first backend, not an
     # import side effect (issue 18 item 7)

@@ -183,13 +183,30 @@ def _number(spec: Setting, value: Any) -> float | int:
     return number
 
 
-def _load_builtin() -> None:
-    """Import the built-in experiments so that they register themselves."""
-    import importlib
+#: the entry-point group that lists bench-test modules (pyproject.toml)
+ENTRY_POINT_GROUP = "demcal.benches"
+_loaded = False
 
-    for module in ("demcal.bench.repose", "demcal.bench.incline", "demcal.bench.impact"):
+
+def _load_builtin() -> None:
+    """Import every module of the ``demcal.benches`` entry-point group, demcal's own
+    tests included (pyproject.toml), so that they register themselves; a campaign's
+    ``plugins`` file registers the same way. One sentence if a module fails to load."""
+    global _loaded
+    if _loaded:
+        return
+    import importlib
+    from importlib.metadata import entry_points
+
+    found = entry_points(group=ENTRY_POINT_GROUP)
+    if not any(ep.value.startswith("demcal.bench.") for ep in found):
+        raise ConfigError("demcal's bench tests are not registered: its package metadata is "
+                          "missing or stale; reinstall demcal (pip install -e . or make test).")
+    for ep in found:
         try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if not (exc.name and module.startswith(exc.name)):
-                raise
+            importlib.import_module(ep.value)
+        except Exception as exc:  # noqa: BLE001 -- a plug-in's failure in one sentence
+            raise ConfigError(f"the bench-test module {ep.value!r} (entry point {ep.name!r} of "
+                              f"{ep.dist.name if ep.dist else 'an installed package'}) failed to "
+                              f"load: {exc}.") from None
+    _loaded = True
