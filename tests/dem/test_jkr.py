@@ -225,3 +225,16 @@ def test_surface_energy_is_a_bench_setting():
     keys = get_experiment("repose-funnel").settings("quick")
     assert "particle.surface_energy" in keys and "wall.surface_energy" in keys
     assert "hertz_mindlin_jkr" in keys["contact.model"].choices
+
+
+def test_the_critical_force_offset_is_jkr_s_alone():
+    # chosen-only pair constant: 3 pi gamma in a JKR pair table, 0 in any other, so the
+    # kernel adds it without a branch on the sub-model
+    from demcal.dem.contact.normal import P_PULL
+    it = Interaction(surface_energy=GAMMA)
+    jkr = pair_table(MaterialTable([SOFT], it), ContactModel.preset("hertz_mindlin_jkr"))
+    hertz = pair_table(MaterialTable([SOFT], it), ContactModel.preset("hertz_mindlin"))
+    assert jkr[0, 0, P_PULL] == pytest.approx(3 * math.pi * GAMMA, rel=1e-15)
+    assert hertz[0, 0, P_PULL] == 0.0
+    sim = Simulation([SOFT], it, contact_model="hertz_mindlin")
+    assert sim.description.table[0, 0, P_PULL] == 0.0

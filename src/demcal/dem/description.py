@@ -100,7 +100,7 @@ def describe(materials, interactions, dt=None, contact_model="hertz_mindlin",
         raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
     return Description(material_table=table, contact_model=model,
                        models=np.array(model.ids(), dtype=np.int64),
-                       table=np.ascontiguousarray(pair_table(table)),
+                       table=np.ascontiguousarray(pair_table(table, model)),
                        dt=None if dt is None else float(dt),
                        dt_fraction=float(dt_fraction), impact_speed=impact_speed,
                        skin=skin, domain=dom, threads=int(threads), backend=backend)

@@ -141,12 +141,10 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             dz = zi - zj
             rs = ri + rj
             d2 = dx * dx + dy * dy + dz * dz
-            # a contact that held at the last step stays while the gap is within the
-            # normal sub-model's reach (0 for all but the cohesive ones)
-            lim = rs
-            if active[p]:
-                lim = rs + reach(normal, table, mati, bmat[sbody[j]], ri * rj / rs)
-            if d2 >= lim * lim:
+            # apart; but a contact that held at the last step stays while the gap is
+            # within the normal sub-model's reach (0 for all but the cohesive ones)
+            if d2 >= rs * rs and not (active[p] and d2 < (rs + reach(
+                    normal, table, mati, bmat[sbody[j]], ri * rj / rs)) ** 2):
                 if not halo:
                     if not here:
                         reset_history(deferred, k)

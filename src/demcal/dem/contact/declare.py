@@ -112,6 +112,9 @@ class PairConstant:
     unit: str
     derive: Callable
     rule: str = ""
+    #: derived only where a chosen sub-model declares it, 0 in every other pair table:
+    #: a term a kernel may then add without asking which sub-model is chosen
+    chosen_only: bool = False
 
     def __post_init__(self):
         _take_column(self)

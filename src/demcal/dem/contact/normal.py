@@ -42,7 +42,7 @@ import math
 from numba import njit
 
 from .declare import FASTMATH, HistoryField, SubModel
-from .declare import Coefficient
+from .declare import Coefficient, PairConstant
 from .llvm_math import sqrt
 from .pairs import ESTAR, P_E, P_ESTAR, P_YMIN, RESTITUTION, YMIN
 
@@ -57,6 +57,12 @@ SURFACE_ENERGY = Coefficient(
     "surface_energy", "J/m2", 0.0, 0.0, bench=(0.0, 100.0),
     doc="JKR surface energy gamma (pull-off force 1.5 pi gamma R*)")
 P_GAMMA = SURFACE_ENERGY.column
+#: 2 F_c / R* = 3 pi gamma [N/m], JKR's critical-force offset per unit R* (0 in the pair
+#: table of any other normal sub-model, so the kernel adds it without a branch)
+PULL_OFF = PairConstant("pull_off", "N/m",
+                        lambda mi, mj, it: 3.0 * math.pi * it.value("surface_energy", 0.0),
+                        "2 F_c / R* = 3 pi gamma (Thornton & Yin 1991)", chosen_only=True)
+P_PULL = PULL_OFF.column
 
 #: the residual overlap delta0 [m] of the Hysteretic Spring
 RESIDUAL_OVERLAP = HistoryField("residual_overlap", "m", vector=False)
@@ -84,7 +90,7 @@ def _spring_time(row, r_eff, m_eff, speed):
     return spring_contact_time(m_eff, k2)
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
 def jkr_gap(estar, gamma, r_eff):
     """delta_s [m], the gap a JKR contact holds across: ``3 a_s^2 / R*`` with
     ``a_s = (pi gamma R*^2 / (8 E*))^(1/3)`` (module docstring)."""
@@ -92,7 +98,7 @@ def jkr_gap(estar, gamma, r_eff):
     return 3.0 * a_s * a_s / r_eff
 
 
-@njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
+@njit(cache=True, error_model="numpy", fastmath=FASTMATH)
 def jkr_radius(delta, r_eff, estar, gamma):
     """The JKR contact radius a [m] at overlap ``delta`` [m] (negative down to
     ``-jkr_gap``), on the stable branch.
@@ -140,7 +146,8 @@ MODELS = (
              source="EDEM linear spring (K = 5 R* Y)"),
     # the contact radius feeds Tsuji's damping and Mindlin's spring, as in EDEM's
     # Hertz-Mindlin with JKR; the Hertz duration bounds the step
-    SubModel("normal", "jkr", NORMAL_JKR, constants=(ESTAR,), coefficients=(SURFACE_ENERGY,),
+    SubModel("normal", "jkr", NORMAL_JKR, constants=(ESTAR, PULL_OFF),
+             coefficients=(SURFACE_ENERGY,),
              reach=_jkr_reach, contact_time=_hertz_time, rayleigh_bound=True,
              requires=(("damping", ("tsuji", "none")), ("tangential", ("mindlin", "none"))),
              source="Johnson, Kendall & Roberts 1971; EDEM Hertz-Mindlin with JKR cohesion"),
@@ -225,10 +232,11 @@ def critical_force(model, fn, table, mi, mj, r_eff):
     (``mu_r F R``): the total normal force clipped at 0, for every normal sub-model
     that does not pull. For JKR the force is measured from the pull-off state,
     ``F_n + 2 F_c`` with ``F_c = 1.5 pi gamma R*`` (Thornton & Yin 1991, Powder
-    Technol. 65, 153-166; LAMMPS granular ``jkr``), clipped at 0."""
-    f = fn
-    if model == NORMAL_JKR:
-        f = fn + 3.0 * math.pi * table[mi, mj, P_GAMMA] * r_eff
+    Technol. 65, 153-166; LAMMPS granular ``jkr``), clipped at 0. The offset is JKR's
+    chosen-only pair constant ``PULL_OFF`` (0 for the other sub-models: ``fn + 0``
+    is ``fn``), so no branch on the sub-model: one in this hot spot cost 15 % of the
+    pair loop's speed (docs/performance.md)."""
+    f = fn + table[mi, mj, P_PULL] * r_eff
     return f if f > 0.0 else 0.0
 
 

@@ -28,10 +28,12 @@ def declared_coefficient(name: str) -> Coefficient:
     raise KeyError(name)
 
 
-def pair_row(mi, mj, it) -> np.ndarray:
+def pair_row(mi, mj, it, chosen=None) -> np.ndarray:
     """Engine constants for one material pair (materials ``mi``, ``mj``, interaction
     ``it``); ConfigError (one sentence) for a coefficient no sub-model declares or out
-    of its range."""
+    of its range. ``chosen``: the contact model's sub-models (a constant declared
+    ``chosen_only`` is 0 unless one of them declares it; all are derived where None)."""
+    declared = None if chosen is None else {c.name for m in chosen for c in m.constants}
     known = coefficient_names()
     for name, _ in it.coefficients:
         if name not in known:
@@ -41,20 +43,22 @@ def pair_row(mi, mj, it) -> np.ndarray:
     for c in COLUMNS:
         if isinstance(c, Coefficient):
             row[c.column] = c.check(it.value(c.name, c.default))
-        else:
+        elif not c.chosen_only or declared is None or c.name in declared:
             row[c.column] = c.derive(mi, mj, it)
     return row
 
 
-def pair_table(material_table) -> np.ndarray:
+def pair_table(material_table, model=None) -> np.ndarray:
     """float64[nmat, nmat, len(COLUMNS)] of a
-    :class:`~demcal.particles.materials.MaterialTable`."""
+    :class:`~demcal.particles.materials.MaterialTable` for the
+    :class:`~demcal.dem.contact.registry.ContactModel` ``model`` (see :func:`pair_row`)."""
+    chosen = None if model is None else model.submodels()
     mats = material_table.materials
     n = len(mats)
     tab = np.zeros((n, n, len(COLUMNS)))
     for i in range(n):
         for j in range(n):
-            tab[i, j] = pair_row(mats[i], mats[j], material_table.interaction(i, j))
+            tab[i, j] = pair_row(mats[i], mats[j], material_table.interaction(i, j), chosen)
     return tab
 
 
