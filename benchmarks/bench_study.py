@@ -15,6 +15,11 @@ a study cut short still has every case. The tables in ``docs/validation.md`` are
 from these files by ``--summary``::
 
     python benchmarks/bench_study.py PLAN.json RESULTS.jsonl --summary
+
+``--jobs N`` runs N of them at once (for a machine with more cores than the 2-core
+reference machine); a case may name its own ``"threads"`` (numba threads of that run),
+and ``--separate-caches DIR`` gives each concurrent slot its own numba cache under DIR, so
+that runs compiling at the same time never share cache files.
 """
 
 from __future__ import annotations
@@ -46,33 +51,56 @@ def _order(plan: list[dict]) -> list[tuple[dict, int]]:
     return [(c, c["seeds"][i]) for i in range(depth) for c in plan if i < len(c["seeds"])]
 
 
-def run(plan: list[dict], results: Path, threads: int) -> None:
-    done = _done(results)
+def _one(case: dict, seed: int, threads: int, cache: Path | None) -> dict:
+    threads = int(case.get("threads", threads))
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
-    demcal = str(Path(sys.executable).with_name("demcal"))
-    for case, seed in _order(plan):
-        if (case["case"], seed) in done:
-            continue
-        cmd = [demcal, "bench", case["test"], "--profile", case["profile"], "--seed", str(seed), "--json"]
-        for key, value in case.get("set", {}).items():
-            cmd += ["--set", f"{key}={value}"]
-        start = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-        wall = time.perf_counter() - start
-        row = {"case": case["case"], "seed": seed, "test": case["test"], "profile": case["profile"],
-               "set": case.get("set", {}), "threads": threads, "wall_s": round(wall, 1)}
-        if proc.returncode == 0:
-            out = json.loads(proc.stdout)
-            row.update(responses=out["responses"], spread=out.get("spread", {}),
-                       particles=out.get("particles"), steps=out.get("steps"),
-                       simulated_s=out.get("simulated_s"))
-        else:
-            row["error"] = (proc.stderr.strip().splitlines() or ["exit %d" % proc.returncode])[-1]
-        with results.open("a") as fh:
-            fh.write(json.dumps(row) + "\n")
-        print(f"{case['case']} seed {seed}: "
-              + (f"{row['responses'][RESPONSE[case['test']]]:.2f}" if "responses" in row else row["error"])
-              + f" ({wall:.0f} s)", flush=True)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache)
+    cmd = [sys.executable, "-m", "demcal", "bench", case["test"], "--profile", case["profile"],
+           "--seed", str(seed), "--json"]
+    for key, value in case.get("set", {}).items():
+        cmd += ["--set", f"{key}={value}"]
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    wall = time.perf_counter() - start
+    row = {"case": case["case"], "seed": seed, "test": case["test"], "profile": case["profile"],
+           "set": case.get("set", {}), "threads": threads, "wall_s": round(wall, 1)}
+    if proc.returncode == 0:
+        out = json.loads(proc.stdout)
+        row.update(responses=out["responses"], spread=out.get("spread", {}),
+                   particles=out.get("particles"), steps=out.get("steps"),
+                   simulated_s=out.get("simulated_s"))
+    else:
+        row["error"] = (proc.stderr.strip().splitlines() or ["exit %d" % proc.returncode])[-1]
+    return row
+
+
+def run(plan: list[dict], results: Path, threads: int, jobs: int = 1,
+        separate_caches: Path | None = None) -> None:
+    from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
+
+    done = _done(results)
+    todo = [(case, seed) for case, seed in _order(plan) if (case["case"], seed) not in done]
+    free = list(range(jobs))
+    running = {}
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        while todo or running:
+            while todo and free:
+                slot = free.pop(0)
+                case, seed = todo.pop(0)
+                cache = separate_caches / f"slot-{slot}" if separate_caches else None
+                running[pool.submit(_one, case, seed, threads, cache)] = (case, slot)
+            finished, _ = wait(running, return_when=FIRST_COMPLETED)
+            for fut in finished:
+                case, slot = running.pop(fut)
+                free.append(slot)
+                row = fut.result()
+                # each finished run is on disk before the next one is reported
+                with results.open("a") as fh:
+                    fh.write(json.dumps(row) + "\n")
+                print(f"{case['case']} seed {row['seed']}: "
+                      + (f"{row['responses'][RESPONSE[case['test']]]:.2f}" if "responses" in row
+                         else row["error"]) + f" ({row['wall_s']:.0f} s)", flush=True)
 
 
 def summary(plan: list[dict], results: Path) -> str:
@@ -103,13 +131,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("plan", type=Path)
     ap.add_argument("results", type=Path)
     ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--jobs", type=int, default=1, help="runs at once (default 1)")
+    ap.add_argument("--separate-caches", type=Path, metavar="DIR",
+                    help="one numba cache folder per concurrent slot, under DIR")
     ap.add_argument("--summary", action="store_true", help="print the results as a Markdown table")
     args = ap.parse_args(argv)
     plan = json.loads(args.plan.read_text())
     if args.summary:
         print(summary(plan, args.results))
     else:
-        run(plan, args.results, args.threads)
+        run(plan, args.results, args.threads, args.jobs, args.separate_caches)
     return 0
 
 

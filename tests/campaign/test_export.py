@@ -18,7 +18,9 @@ import pytest
 
 from demcal.campaign.config import load_campaign
 from demcal.cli import main
-from demcal.export.card import build_card, campaign_hash, resolved_config
+from demcal.dem.contact.registry import SUBMODELS
+from demcal.export.card import (EDEM_ROLLING, LIGGGHTS_ROLLING, build_card, campaign_hash,
+                                resolved_config)
 
 VERIFIED = {"response": "repose_angle_deg", "target": 31.07, "lab_sd": 2.1, "predicted": 31.07,
             "simulated": [30.5, 31.2, 31.9], "simulated_mean": 31.2, "simulated_sd": 0.7,
@@ -183,6 +185,45 @@ def test_film_interaction_and_fixed_settings(sliding, capsys):
     assert card["codes"]["edem"]["rolling_model"] == "Type C Rolling Friction"
     assert card["codes"]["edem"]["transferable"] is True
     assert [s["radius"] for s in card["particle"]["spheres"]] == [0.0045]
+
+
+def test_every_rolling_model_has_a_row_for_each_code():
+    """A rolling sub-model added to the engine (type_a_limited the latest) must say what it
+    is in EDEM and in LIGGGHTS, and why it does not carry over where it does not."""
+    names = [m.name for m in SUBMODELS["rolling"]]
+    assert "type_a_limited" in names
+    for table in (EDEM_ROLLING, LIGGGHTS_ROLLING):
+        assert sorted(table) == sorted(names)
+        for name, (code_name, transferable, why) in table.items():
+            assert transferable or "recalibrate" in why, name
+            assert not transferable or why == "", name
+
+
+def test_card_of_a_type_a_limited_material(sliding, capsys):
+    """type_a_limited (EDEM's standard rolling friction with STAR-CCM+'s moment limiter)
+    maps to EDEM's Standard Rolling Friction and LIGGGHTS' cdt, neither transferable."""
+    path = sliding / "sliding.toml"
+    text = path.read_text()
+    assert '"rolling.model" = "type_c"' in text
+    path.write_text(text.replace('"rolling.model" = "type_c"', '"rolling.model" = "type_a_limited"'))
+    card = _card(capsys, "sliding.toml")
+    assert card["models"] == {"contact": "hertz_mindlin", "rolling": "type_a_limited"}
+    edem, liggghts = card["codes"]["edem"], card["codes"]["liggghts"]
+    assert (edem["contact_model"], edem["rolling_model"], edem["transferable"]) == (
+        "Hertz-Mindlin (no slip)", "Standard Rolling Friction", False)
+    assert edem["reasons"] == [EDEM_ROLLING["type_a_limited"][2]]
+    assert "recalibrate with rolling.model = type_a for EDEM" in edem["reasons"][0]
+    assert (liggghts["rolling_model"], liggghts["transferable"]) == ("cdt", False)
+    assert liggghts["reasons"] == [LIGGGHTS_ROLLING["type_a_limited"][2]]
+    text = _export(capsys, "sliding.toml", "--format", "edem")
+    assert "# NOT TRANSFERABLE: calibrated with demcal's contact.model = hertz_mindlin, " \
+           "rolling.model = type_a_limited." in text
+    assert "base model Hertz-Mindlin (no slip); rolling friction Standard Rolling Friction" in text
+    assert "Rolling Viscous Damping Ratio" not in text      # type C's column only
+    text = _export(capsys, "sliding.toml", "--format", "liggghts")
+    assert "NOT TRANSFERABLE" in text
+    assert "pair_style gran model hertz tangential history rolling_friction cdt" in text
+    assert "coefficientRollingViscousDamping" not in text   # epsd's only
 
 
 def test_build_card_is_a_pure_function_of_campaign_and_calibration(repose):

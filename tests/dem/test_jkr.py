@@ -63,7 +63,7 @@ def kernel_force(delta, gamma=GAMMA, mu_s=0.0, slip=None, r=RS):
     out = contact(NORMAL["jkr"], DAMPING["tsuji"], TANGENTIAL["mindlin"], ROLLING["none"],
                   pair_table(MaterialTable([SOFT], it)), 0, 0, hist, 0, delta,
                   0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                  r, r, r, 1e-3, 0.0, 1e-7)
+                  r, r, r, 1e-3, 0.0, 0.0, 0.0, 1e-7)
     return np.array(out[:3])
 
 

@@ -24,23 +24,38 @@ Closed forms:
   rolls away with the constant moment M_m, so rolling without slip (I = 2/5 m R^2)
   gives a = (5/7) g (sin(theta) - mu_r cos(theta)). The slope is bracketed at
   tan(theta) = 0.9 mu_r and 1.1 mu_r, so a limiting moment off by 10 % fails.
+* Type A with a moment limiter (``type_a_limited``: EDEM's standard rolling friction
+  capped as Simcenter STAR-CCM+'s Constant Torque method caps its moment, "Rolling
+  Resistance", Moment Limiter Factor f = 0.08: at most f times the moment that negates
+  the spin in the next time step, |tau| <= f I |w| / dt). Velocity Verlet evaluates the
+  contact with the half-step spin and applies its torque over a whole step, so a spin
+  below the cap's threshold mu_r Fn R dt / (f I) is multiplied by exactly (1 - f) per
+  step: it decays to 0 without reversing, where type A's constant torque, larger than
+  I |w| / dt, flips the spin's sign every step (chatter). A rolling sphere (v = w R)
+  spins far above the threshold until the last few steps before it stops, so the
+  rolling phase is type A's, a = -(5/7) mu_r g, bit for bit.
 """
 
+import json
 import math
 
 import numpy as np
 import pytest
 
+from demcal.bench.registry import get_experiment, resolve_settings
+from demcal.cli import main
 from demcal.dem import Simulation
+from demcal.dem.contact.registry import ROLLING
+from demcal.dem.contact.rolling import MOMENT_LIMITER
 from demcal.particles.materials import Interaction
 
-from dem_helpers import RADIUS, SOFT, SOFT_WALL, floor, tilted_gravity
+from dem_helpers import RADIUS, SOFT, SOFT_WALL, Trace, floor, tilted_gravity
 
 G = 9.81
 
 
-def settled(backend, rolling_model, mu_r, gravity=(0, 0, -G)):
-    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=0.8,
+def settled(backend, rolling_model, mu_r, gravity=(0, 0, -G), mu_s=0.8):
+    sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, static_friction=mu_s,
                                                     rolling_friction=mu_r),
                      walls=floor(), gravity=gravity, rolling_model=rolling_model,
                      backend=backend)
@@ -67,11 +82,12 @@ def test_rolling_deceleration(backend, rolling_model):
     assert a == pytest.approx(-5.0 / 7.0 * mu_r * G, rel=0.02)
 
 
-@pytest.mark.parametrize("rolling_model", ["cdt", "type_a"])
+@pytest.mark.parametrize("rolling_model", ["cdt", "type_a", "type_a_limited"])
 def test_rolling_torque_between_counter_rotating_spheres(backend, rolling_model):
     """Sphere on sphere, where cdt (R*, w_i - w_j) and type_a (own lever, own w) differ:
     the closed-form torque on both bodies and the spin decay of both (see the module
-    docstring; Ai et al. 2011, Powder Technol. 206, 269, model A, Eq. 4-5)."""
+    docstring; Ai et al. 2011, Powder Technol. 206, 269, model A, Eq. 4-5). The spins
+    stay above type_a_limited's threshold (0.3 rad/s here), so it is type A's."""
     mu_r = 0.1
     w0 = 20.0
     # rolling resistance only between the spheres; the floor is frictionless, so the
@@ -89,7 +105,8 @@ def test_rolling_torque_between_counter_rotating_spheres(backend, rolling_model)
         st.omegas[k] = [0, sign[k] * w0, 0]
         st.angular_momenta[k] = [0, sign[k] * w0 * st.inertias[k, 0], 0]
     delta = 2 * RADIUS - (st.positions[1, 2] - st.positions[0, 2])
-    lever = {"cdt": RADIUS / 2, "type_a": RADIUS - delta / 2}[rolling_model]
+    lever = {"cdt": RADIUS / 2, "type_a": RADIUS - delta / 2,
+             "type_a_limited": RADIUS - delta / 2}[rolling_model]
     m = st.masses[1]
     torque = mu_r * m * G * lever                       # Fn = m g
     decel = torque / st.inertias[1, 0]
@@ -134,3 +151,105 @@ def test_type_c_rolls_above_rolling_limit(backend):
     assert vs[-1] > 0.03
     assert a == pytest.approx(5.0 / 7.0 * G * (math.sin(theta) - mu_r * math.cos(theta)),
                               rel=0.03)
+
+
+# ------------------------------------------------- type A with the moment limiter --
+
+def spin_trace(backend, rolling_model, w0, steps):
+    """A sphere at rest on a frictionless floor (the rolling torque is then the only
+    torque on it) set spinning at w0 about y; per step: its spin (the full-step value
+    the state holds), the spin the next force evaluation sees (the half-step value
+    w + T dt / 2I) and the torque about y."""
+    sim = settled(backend, rolling_model, 0.1, mu_s=0.0)
+    st = sim.state
+    i0 = st.inertias[0, 0]
+    st.omegas[0] = [0, w0, 0]
+    st.angular_momenta[0] = [0, w0 * i0, 0]
+    dt = sim.dt
+    trace = Trace(lambda s: (s.state.omegas[0, 1],
+                             s.state.omegas[0, 1] + s.state.torques[0, 1] * dt / (2 * i0),
+                             s.state.torques[0, 1]))
+    sim.run(steps=steps, reporters=[trace])
+    return np.array(trace.rows).T, sim
+
+
+def test_type_a_limited_stops_a_slow_spin_where_type_a_chatters(backend):
+    """Module docstring: below mu_r Fn R dt / (f I) (0.33 rad/s here) type A's torque,
+    larger than I |w| / dt, reverses the spin every step (EDEM standard rolling
+    friction); STAR-CCM+'s moment limiter makes it -f I w / dt, and the spin decays by
+    exactly (1 - f) per step, never changing sign."""
+    w0 = 1e-3
+    (w, w_half, torque), sim = spin_trace(backend, "type_a", w0, 200)
+    i0 = sim.state.inertias[0, 0]
+    # type A: the spin the contact sees and the torque flip sign every step
+    assert np.all(np.sign(w_half[1:]) == -np.sign(w_half[:-1]))
+    assert np.all(np.sign(torque[1:]) == -np.sign(torque[:-1]))
+    assert np.abs(w_half).max() > 10 * w0                 # and the chatter is no small one
+    (w, w_half, torque), sim = spin_trace(backend, "type_a_limited", w0, 200)
+    assert np.all(w > 0) and np.all(w_half > 0) and np.all(torque < 0)
+    assert np.all(np.diff(w) < 0) and np.all(np.diff(w_half) < 0)
+    # the limiter binds all along: T = -f I w_half(previous step) / dt, the spin shrinks
+    # by (1 - f) per step (by 1 - f/2 in the first, whose first half kick had no torque)
+    assert w[0] == pytest.approx(w0 * (1 - MOMENT_LIMITER / 2), rel=1e-12)
+    assert w[1:] / w[:-1] == pytest.approx(1 - MOMENT_LIMITER, rel=1e-9)
+    assert torque[1:] == pytest.approx(-MOMENT_LIMITER * i0 / sim.dt * w_half[:-1], rel=1e-9)
+    assert w[-1] < 1e-6 * w0
+
+
+def test_type_a_limited_rolls_as_type_a_and_comes_to_rest(backend):
+    """A sphere set rolling (v = w R) on the floor: a = -(5/7) mu_r g under type A (Ai et
+    al. 2011, model A, energy balance; module docstring) and under type_a_limited the
+    same to the bit, since its spin stays above the limiter's threshold (0.33 rad/s,
+    v = 1.6 mm/s) until the last steps; then type_a_limited comes to rest, where type A
+    is left creeping (its chatter; measured 2.2e-5 m/s)."""
+    mu_r = 0.1
+    v0 = 0.1
+    t_stop = v0 / (5.0 / 7.0 * mu_r * G)          # 0.143 s
+    runs = {}
+    for model in ("type_a", "type_a_limited"):
+        sim = settled(backend, model, mu_r)
+        st = sim.state
+        h = st.positions[0, 2]
+        st.velocities[0] = [v0, 0, 0]
+        st.angular_momenta[0] = [0, v0 / h * st.inertias[0, 0], 0]
+        st.omegas[0] = [0, v0 / h, 0]
+        t_start = sim.time
+        ts, vs, ws = [], [], []
+        for _ in range(20):
+            sim.run(duration=0.01)
+            ts.append(sim.time - t_start)
+            vs.append(st.velocities[0, 0])
+            ws.append(st.omegas[0, 1])
+        runs[model] = np.array(ts), np.array(vs), np.array(ws)
+    ts, va, _ = runs["type_a"]
+    _, vl, wl = runs["type_a_limited"]
+    rolling = ts < t_stop - 0.005
+    assert rolling.sum() >= 13
+    assert vl[rolling] == pytest.approx(va[rolling], rel=1e-12, abs=1e-15)
+    a = np.polyfit(ts[rolling], vl[rolling], 1)[0]
+    assert a == pytest.approx(-5.0 / 7.0 * mu_r * G, rel=0.01)
+    # at rest 0.05 s after the stop (type A is not: the test means something)
+    assert abs(vl[-1]) < 1e-9 and abs(wl[-1]) * RADIUS < 1e-9
+    assert abs(va[-1]) > 1e-6
+
+
+def test_type_a_limited_names():
+    """The sub-model's name and alias reach the engine and the bench settings."""
+    assert ROLLING["type_a_limited"] == ROLLING["constant_limited"] == 4
+    for name in ("type_a_limited", "constant_limited"):
+        sim = Simulation([SOFT, SOFT_WALL], Interaction(restitution=0.3, rolling_friction=0.1),
+                         rolling_model=name)
+        assert sim.contact_model.rolling == name            # kept as given, like "constant"
+        assert sim.description.models[3] == ROLLING["type_a_limited"]
+    funnel = get_experiment("repose-funnel")
+    s = resolve_settings(funnel, {"rolling.model": "type_a_limited"}, "tiny")
+    assert s["rolling.model"] == "type_a_limited"
+
+
+def test_type_a_limited_bench_setting_runs(capsys):
+    """``demcal bench repose-funnel --profile tiny --set rolling.model=type_a_limited``
+    (150 particles, about 3 s) gives a heap."""
+    assert main(["bench", "repose-funnel", "--profile", "tiny", "--json",
+                 "--set", "rolling.model=type_a_limited"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert 5.0 < data["responses"]["repose_angle_deg"] < 60.0

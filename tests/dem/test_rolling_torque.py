@@ -24,6 +24,15 @@ normal from j to i, ``w_r = w_i - w_j``, ``w_t = w_r - (w_r . n) n``.
   ``k_r = 2.25 S_n mu_r^2 R*^2`` (S_n = 2 E* sqrt(R* delta), the Hertz tangent
   stiffness), ``C_r = 2 eta_r sqrt(I_r k_r)`` and
   ``1/I_r = 1/(I_i + m_i R_i^2) + 1/(I_j + m_j R_j^2)``.
+* ``type_a_limited``: type A's torque (EDEM standard rolling friction, above) with the
+  moment limiter of Simcenter STAR-CCM+'s Constant Torque method (STAR-CCM+ theory guide,
+  "Rolling Resistance", Constant Torque Method: the moment is at most the Moment Limiter
+  Factor, default 0.08, times the moment that negates the rotation in the next time
+  step), applied to each side's own spin: ``|tau_i| <= f I_i |w_i| / dt`` with I_i the
+  body's mean principal moment of inertia, i.e. ``tau_i = -min(mu_r Fn R_i / |w_i|,
+  f I_i / dt) w_i``; likewise for j, and nothing on a wall (I_j = 0). A spin above
+  ``mu_r Fn R_i dt / (f I_i)`` (0.04 rad/s for i here) feels type A's torque bit for
+  bit; one below it a viscous torque ``-f I_i w_i / dt``.
 
 The pair and the floor below were also run in LIGGGHTS-PUBLIC 3.8.0 (Debian
 3.8.0+repack1, ``liggghts -in``), same numbers, ``run 0`` and a dump of the torques::
@@ -70,6 +79,7 @@ import pytest
 from demcal.dem import Simulation
 from demcal.dem.contact.kernel import HIST_WIDTH, H_DELTA0, contact
 from demcal.dem.contact.registry import DAMPING, NORMAL, ROLLING, TANGENTIAL
+from demcal.dem.contact.rolling import MOMENT_LIMITER
 from demcal.geometry import Cylinder, WallSet
 from demcal.geometry.motion import Rotation
 from demcal.dem.contact.table import pair_table
@@ -194,17 +204,17 @@ def test_type_c_first_step_torque():
     out = contact(NORMAL["hertz"], DAMPING["tsuji"], TANGENTIAL["mindlin"], ROLLING["type_c"],
                   pair_table(MaterialTable([SOFT], INTER)), 0, 0, np.zeros((1, HIST_WIDTH)), 0,
                   DELTA, *N, *(APPROACH - V_J), *W_I, *W_J, R_I - DELTA / 2,
-                  R_J - DELTA / 2, r_eff, m_eff, inv_ir, dt)
+                  R_J - DELTA / 2, r_eff, m_eff, inv_ir, 0.0, 0.0, dt)
     assert np.array(out[3:6]) == pytest.approx(spring - c_r * w_t, rel=REL)
     assert np.array(out[6:9]) == pytest.approx(-(spring - c_r * w_t), rel=REL)
     assert np.array(out[13:16]) == pytest.approx(spring, rel=REL)   # the stored spring
 
 
-def on_floor(rolling):
+def on_floor(rolling, w=(20.0, -30.0, 40.0)):
     sim = Simulation([SOFT, SOFT_WALL], INTER, walls=floor(), gravity=(0, 0, 0), dt=1e-7,
                      rolling_model=rolling)
     sim.add_particles(R_I, [[0.0, 0.0, R_I - DELTA]], velocities=[[0.01, 0.0, -0.02]],
-                      angular_velocities=[[20.0, -30.0, 40.0]], fixed=True)
+                      angular_velocities=[w], fixed=True)
     sim.run(steps=1)
     return sim.state.torques[0].copy()
 
@@ -242,7 +252,8 @@ def test_cdt_does_not_see_a_wall_spin():
 
 def test_cdt_hysteretic_spring_takes_k1_delta():
     """Unloading branch of the Hysteretic Spring: the spring force K2 (delta - delta0)
-    is half of K1 delta here; cdt takes K1 delta, type A the force with its damping."""
+    is half of K1 delta here; cdt takes K1 delta, type A (and type_a_limited, whose
+    limiter does not bind here) the force with its damping."""
     mats = MaterialTable([SOFT, SOFT_WALL],
                          Interaction(restitution=E, static_friction=0.0,
                                      rolling_friction=MU_R, damping_factor=0.2))
@@ -257,10 +268,10 @@ def test_cdt_hysteretic_spring_takes_k1_delta():
     vn = v_r @ N
     lever_i = R_I - DELTA / 2
     torques = {}
-    for rolling in ("cdt", "type_a"):
+    for rolling in ("cdt", "type_a", "type_a_limited"):
         out = contact(NORMAL["hysteretic"], DAMPING["hysteretic"], TANGENTIAL["linear"],
                       ROLLING[rolling], pair_table(mats), 0, 0, hist, 0, DELTA, *N, *v_r, *W_I,
-                      *W_J, lever_i, R_J - DELTA / 2, r_eff, m_eff, 0.0, 1e-7)
+                      *W_J, lever_i, R_J - DELTA / 2, r_eff, m_eff, 0.0, ISO_I, ISO_J, 1e-7)
         torques[rolling] = np.array(out[3:6])
     fs = k2 * (DELTA - delta0)
     assert 0.4 * k1 * DELTA < fs < 0.6 * k1 * DELTA
@@ -268,3 +279,83 @@ def test_cdt_hysteretic_spring_takes_k1_delta():
     fd = 2.0 * 0.2 * BETA * math.sqrt(k2 * m_eff) * vn
     assert torques["type_a"] == pytest.approx(
         -MU_R * (fs + fd) * lever_i * W_I / np.linalg.norm(W_I), rel=REL)
+    # the limiter does not bind at this spin: type_a_limited reads type A's force
+    assert np.array_equal(torques["type_a_limited"], torques["type_a"])
+
+
+# ------------------------------------------------- type A with the moment limiter --
+
+DT = 1e-7
+ISO_I = 0.4 * mass(R_I) * R_I ** 2          # solid spheres: I = 2/5 m r^2
+ISO_J = 0.4 * mass(R_J) * R_J ** 2
+SLOW = 1e-5                                 # W_I, W_J scaled by this: the cap binds
+
+
+def type_a_fn():
+    """Type A's normal force for the approaching pair: spring + Tsuji damping."""
+    fe, sn = hertz(R_I * R_J / (R_I + R_J), DELTA)
+    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+    return fe + 2.0 * math.sqrt(5.0 / 6.0) * BETA * math.sqrt(sn * m_eff) * ((APPROACH - V_J) @ N)
+
+
+def kernel_rolling(rolling, w_i, w_j, iso_i=ISO_I, iso_j=ISO_J):
+    """Rolling torques on i and j from one call of the contact kernel (the approaching
+    pair above, no sliding friction)."""
+    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+    out = contact(NORMAL["hertz"], DAMPING["tsuji"], TANGENTIAL["mindlin"], ROLLING[rolling],
+                  pair_table(MaterialTable([SOFT], INTER)), 0, 0, np.zeros((1, HIST_WIDTH)), 0,
+                  DELTA, *N, *(APPROACH - V_J), *w_i, *w_j, R_I - DELTA / 2, R_J - DELTA / 2,
+                  R_I * R_J / (R_I + R_J), m_eff, 0.0, iso_i, iso_j, DT)
+    return np.array(out[3:6]), np.array(out[6:9])
+
+
+def test_type_a_limited_is_type_a_above_the_cap():
+    """EDEM standard rolling friction, tau_i = -mu_r Fn R_i w_i/|w_i|, untouched where
+    it is below STAR-CCM+'s moment limiter f I_i |w_i| / dt (module docstring)."""
+    fn = type_a_fn()
+    ti, tj = kernel_rolling("type_a_limited", W_I, W_J)
+    ta, tb = kernel_rolling("type_a", W_I, W_J)
+    assert np.array_equal(ti, ta) and np.array_equal(tj, tb)
+    assert ti == pytest.approx(-MU_R * fn * (R_I - DELTA / 2) * W_I / np.linalg.norm(W_I),
+                               rel=REL)
+    assert tj == pytest.approx(-MU_R * fn * (R_J - DELTA / 2) * W_J / np.linalg.norm(W_J),
+                               rel=REL)
+    # the test means something: each side is well below its cap (by 50x or more)
+    assert np.linalg.norm(ti) < MOMENT_LIMITER * ISO_I * np.linalg.norm(W_I) / DT / 50
+    assert np.linalg.norm(tj) < MOMENT_LIMITER * ISO_J * np.linalg.norm(W_J) / DT / 50
+
+
+def test_type_a_limited_caps_a_slow_spin_at_the_moment_limiter():
+    """STAR-CCM+'s Constant Torque moment limiter (module docstring): below the
+    threshold spin the torque is -f I w / dt on each side, from its own inertia; a side
+    above its threshold keeps type A's torque; a wall (I_j = 0) takes none."""
+    w_i, w_j = SLOW * W_I, SLOW * W_J
+    ti, tj = kernel_rolling("type_a_limited", w_i, w_j)
+    assert ti == pytest.approx(-MOMENT_LIMITER * ISO_I / DT * w_i, rel=1e-12)
+    assert tj == pytest.approx(-MOMENT_LIMITER * ISO_J / DT * w_j, rel=1e-12)
+    # the test means something: type A's torque on either side is far above the cap
+    ta, tb = kernel_rolling("type_a", w_i, w_j)
+    assert np.linalg.norm(ta) > 50 * np.linalg.norm(ti)
+    assert np.linalg.norm(tb) > 50 * np.linalg.norm(tj)
+    # each side is capped by its own spin and inertia: slow i, fast j
+    ti, tj = kernel_rolling("type_a_limited", w_i, W_J)
+    assert ti == pytest.approx(-MOMENT_LIMITER * ISO_I / DT * w_i, rel=1e-12)
+    assert np.array_equal(tj, kernel_rolling("type_a", w_i, W_J)[1])
+    # no inertia on the j side (a wall): no torque there, i unchanged
+    ti, tj = kernel_rolling("type_a_limited", w_i, w_j, iso_j=0.0)
+    assert np.all(tj == 0.0)
+    assert ti == pytest.approx(-MOMENT_LIMITER * ISO_I / DT * w_i, rel=1e-12)
+
+
+def test_type_a_limited_through_the_engine():
+    """The drivers pass each body's own mean principal moment (unequal spheres, so that
+    i's and j's could not be swapped unseen), for a pair and against a floor."""
+    w_i, w_j = SLOW * W_I, SLOW * W_J
+    ti, tj, _ = pair("type_a_limited", APPROACH, w_i=w_i, w_j=w_j)
+    assert ti == pytest.approx(-MOMENT_LIMITER * ISO_I / DT * w_i, rel=1e-12)
+    assert tj == pytest.approx(-MOMENT_LIMITER * ISO_J / DT * w_j, rel=1e-12)
+    ta, tb, _ = pair("type_a", APPROACH)
+    assert all(np.array_equal(a, b) for a, b in zip((ta, tb), pair("type_a_limited", APPROACH)))
+    w = SLOW * np.array([20.0, -30.0, 40.0])
+    assert on_floor("type_a_limited", w) == pytest.approx(-MOMENT_LIMITER * ISO_I / DT * w,
+                                                          rel=1e-12)

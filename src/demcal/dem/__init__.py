@@ -42,7 +42,9 @@ Contact models (``contact_model``, default ``"hertz_mindlin"``): ``"hertz_mindli
 directional torque on each body's own spin; the default), ``"cdt"`` (LIGGGHTS-PUBLIC
 3.8.0 ``rolling_friction cdt``: the elastic normal force k_n delta, the relative spin
 without its twisting part, lever R* and R against a wall), ``"type_c"``
-(elastic-plastic spring-dashpot, Ai et al. 2011 model C). A ``ContactModel`` carries
+(elastic-plastic spring-dashpot, Ai et al. 2011 model C), ``"type_a_limited"`` (type A
+with a moment limiter: at most 0.08 of the torque that stops the spin in one step, the
+form STAR-CCM+ documents for its constant torque method). A ``ContactModel`` carries
 its own ``rolling``; a ``rolling_model`` that differs from it is refused (name the
 rolling model once). Equations and sources are in :mod:`demcal.dem.contact` and
 docs/dem.md.

@@ -36,7 +36,7 @@ from .contact.kernel import contact, reset_history, store_history
 from .contact.llvm_math import sqrt
 from .contact.normal import reach
 from .contact.registry import (H_FLAG, HIST_WIDTH, LOOP_FASTMATH, ROLLING_CONSTANT,
-                               ROLLING_EPSD, ROLLING_RELATIVE)
+                               ROLLING_EPSD, ROLLING_LIMITED, ROLLING_RELATIVE)
 
 ACC_WIDTH = 6        # sacc columns: force on the sphere (3), torque on its body (3)
 PAIR_OUT_WIDTH = 3   # pair_out columns: force on i
@@ -60,7 +60,7 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
     li = 0.0
     lj = 0.0
     inv_ir = 0.0
-    if rolling == ROLLING_CONSTANT or rolling == ROLLING_EPSD:
+    if rolling == ROLLING_CONSTANT or rolling == ROLLING_EPSD or rolling == ROLLING_LIMITED:
         li = sqrt(aix * aix + aiy * aiy + aiz * aiz)
         inv_ir = 1.0 / (iso_i + mi * li * li)
         if mj > 0.0:
@@ -180,7 +180,7 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
              h0, h1, h2, h3, h4, h5, h6) = contact(
                 normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
                 nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
-                li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, dt)
+                li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, iso_i, biso[bj], dt)
             # a halo row's own sums are dropped below; the code that computes them is
             # the owner's, so both evaluate the contact with the same instructions
             fsx += fx
@@ -287,7 +287,7 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             fx, fy, fz, tix, tiy, tiz, _, _, _, h0, h1, h2, h3, h4, h5, h6 = contact(
                 normal, damping, tangential, rolling, table, bmat[bi], wmat[w], whist, q,
                 delta, nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wwx, wwy, wwz, li, 0.0, ri,
-                mi, inv_ir, dt)
+                mi, inv_ir, biso[bi], 0.0, dt)
             store_history(whist, q, h0, h1, h2, h3, h4, h5, h6)
             wactive[q] = True
             sacc[i, 0] += fx

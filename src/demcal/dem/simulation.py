@@ -67,11 +67,12 @@ class Simulation:
         :meth:`add_particles`; above it the run raises :class:`ConfigError`.
     contact_model : {"hertz_mindlin", "hysteretic_spring", "linear"} or ContactModel
         Default ``"hertz_mindlin"`` (EDEM's Hertz-Mindlin no slip).
-    rolling_model : {"type_a", "cdt", "type_c", "none"}, optional
+    rolling_model : {"type_a", "cdt", "type_c", "type_a_limited", "none"}, optional
         Rolling resistance. With a preset name for ``contact_model`` the default is
         ``"type_a"`` (EDEM's standard rolling friction; a constant torque that never
         lets a bed become perfectly static, see docs/dem.md: name ``"type_c"`` where a
-        static packing matters). A :class:`ContactModel` names its own rolling model;
+        static packing matters, or ``"type_a_limited"``, type A with a moment limiter). A
+        :class:`ContactModel` names its own rolling model;
         a different ``rolling_model`` is refused rather than one of the two ignored.
     dt_fraction : float
         Fraction of the Rayleigh time for the automatic step (default 0.2).

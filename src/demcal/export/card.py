@@ -105,6 +105,12 @@ EDEM_ROLLING = {
             "RVD Rolling Friction, which also uses R* but takes its direction from the contact's "
             "tangential velocity; recalibrate with rolling.model = type_a for EDEM"),
     "type_c": ("Type C Rolling Friction", True, ""),
+    "type_a_limited": ("Standard Rolling Friction", False,
+                       "demcal's type_a_limited caps EDEM's standard rolling torque at 0.08 of the "
+                       "moment that stops the particle's spin in one time step (the moment limiter "
+                       "of STAR-CCM+'s constant torque method); EDEM documents no such limiter, so "
+                       "the values assume a torque EDEM may not apply; recalibrate with "
+                       "rolling.model = type_a for EDEM"),
     "none": ("none", True, ""),
 }
 
@@ -142,6 +148,10 @@ LIGGGHTS_ROLLING = {
                "Hertz stiffness 4/3 E* sqrt(R* delta) where demcal takes the tangent one, "
                "2 E* sqrt(R* delta), so its rolling spring is 2/3 as stiff (the torque limit "
                "mu_r R* Fn is the same); recalibrate in LIGGGHTS or accept the stiffer spring"),
+    "type_a_limited": ("cdt", False,
+                       "demcal's type_a_limited (EDEM's standard rolling friction on the particle's "
+                       "own spin, with a moment limiter) is neither LIGGGHTS' cdt (relative spin, "
+                       "R*, no limiter) nor its epsd; recalibrate with rolling.model = cdt"),
     "none": (None, True, ""),
 }
 

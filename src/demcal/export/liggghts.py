@@ -21,7 +21,8 @@ docs ``doc/gran_model_hertz.txt``, ``doc/gran_rolling_friction_*.txt``,
   a comment that the values do not carry over.
 * rolling: demcal ``cdt`` = ``rolling_friction cdt``; ``type_c`` -> ``epsd`` (Ai et al.
   model C; LIGGGHTS takes the secant normal stiffness); ``type_a`` (EDEM's standard
-  rolling friction) has no LIGGGHTS counterpart -> ``cdt``, flagged as not transferable.
+  rolling friction) and ``type_a_limited`` (the same with a moment limiter) have no LIGGGHTS
+  counterpart -> ``cdt``, flagged as not transferable.
 * property names: ``youngsModulus``, ``poissonsRatio`` (``peratomtype``),
   ``coefficientRestitution``, ``coefficientFriction``, ``coefficientRollingFriction``,
   ``coefficientRollingViscousDamping`` (``peratomtypepair``). demcal stores the shear

@@ -48,7 +48,7 @@ def store_history(hist, h, s0, s1, s2, delta0, m0, m1, m2):
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
             nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
-            lever_i, lever_j, r_eff, m_eff, inv_ir, dt):
+            lever_i, lever_j, r_eff, m_eff, inv_ir, iso_i, iso_j, dt):
     """Force on i and rolling torques on i and j for one overlapping contact.
 
     Parameters
@@ -68,6 +68,8 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
         see ``forces.wall_forces``). lever_i, lever_j: centre of mass to contact
         point distances [m]. r_eff, m_eff: R* [m], m* [kg] (R_i and m_i against a wall).
         inv_ir: inverse rolling inertia 1/I_r [1/(kg m2)] (Ai et al. 2011 Eq. 15).
+        iso_i, iso_j: the bodies' mean principal moments of inertia [kg m2] (0 for a
+        wall), for the rolling moment limiter.
 
     Returns
     -------
@@ -120,6 +122,7 @@ def contact(normal, damping, tangential, rolling, table, mi, mj, hist, h, delta,
     kr = k if k > 0.0 else k1
     tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz = rolling_torque(
         rolling, hist[h, H_ROLL], hist[h, H_ROLL + 1], hist[h, H_ROLL + 2], nx, ny, nz, wix,
-        wiy, wiz, wjx, wjy, wjz, lever_i, lever_j, r_eff, mu_r, fc, fe, kr, eta_r, inv_ir, dt)
+        wiy, wiz, wjx, wjy, wjz, lever_i, lever_j, r_eff, mu_r, fc, fe, kr, eta_r, inv_ir, iso_i,
+        iso_j, dt)
     return (fn * nx + ftx, fn * ny + fty, fn * nz + ftz, tix, tiy, tiz, tjx, tjy, tjz,
             sx, sy, sz, d0, mx, my, mz)

@@ -31,6 +31,18 @@ against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
   viscous torque ``-C_r w_t`` with ``C_r = 2 eta_r sqrt(I_r k_r)`` (Eq. 14-15) while the
   spring is below the cap (none once fully mobilised). The spring torque is kept in the
   tangent plane (by the caller, ``hist[h, 4:7]``).
+* ``type_a_limited`` / ``constant_limited``: type A's torque with a moment limiter, in
+  the form Simcenter STAR-CCM+ documents for its Constant Torque rolling-resistance
+  method ("Rolling Resistance", Moment Limiter: the moment is at most a factor 0.08, its
+  default, of the moment that would negate the rotation in the next time step). Applied
+  to each side's own spin, since type A's torque acts against it:
+  ``|tau_i| <= f I_i |w_i| / dt`` with ``I_i`` the body's mean principal moment of
+  inertia, i.e. ``tau_i = -min(mu_r Fn R_i / |w_i|, f I_i / dt) w_i``. A torque that
+  flips with a vanishing spin every step (type A's chatter on a particle at rest,
+  docs/dem.md) becomes a viscous torque that cannot reverse the spin; a particle that
+  rolls faster than ``mu_r Fn R_i dt / (f I_i)`` feels type A's torque unchanged.
+  With ``f`` = 0.08 a particle needs more than twelve such contacts to have its spin
+  reversed in one step.
 """
 
 from numba import njit
@@ -45,6 +57,10 @@ ROLLING_NONE = 0
 ROLLING_CONSTANT = 1     # EDEM type A: -mu_r Fn R_i w_i/|w_i|
 ROLLING_RELATIVE = 2     # LIGGGHTS 3.8 cdt: -mu_r k_n delta R* w_t/|w_r|
 ROLLING_EPSD = 3         # EDEM type C, Ai et al. 2011
+ROLLING_LIMITED = 4      # type A with a moment limiter (STAR-CCM+'s constant torque form)
+
+#: the moment limiter's factor: STAR-CCM+'s default "Moment Limiter Factor" (0.08)
+MOMENT_LIMITER = 0.08
 
 #: the rolling spring torque [N m] on side i (type C)
 ROLLING_SPRING_TORQUE = HistoryField("rolling_spring_torque", "N m", vector=True)
@@ -61,18 +77,25 @@ MODELS = (
              coefficients=(ROLLING_FRICTION, ROLLING_DAMPING),
              history=(ROLLING_SPRING_TORQUE,),
              source="Ai, Chen, Rotter & Ooi 2011, model C; EDEM type C rolling friction"),
+    SubModel("rolling", "type_a_limited", ROLLING_LIMITED, aliases=("constant_limited",),
+             coefficients=(ROLLING_FRICTION,),
+             source="EDEM standard rolling friction with the moment limiter of Simcenter "
+                    "STAR-CCM+'s Constant Torque method (factor 0.08)"),
 )
 
 
 @njit(cache=True, error_model="numpy", fastmath=FASTMATH, inline="always")
 def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
-                   lever_i, lever_j, r_eff, mu_r, fn, fe, kn, eta_r, inv_ir, dt):
+                   lever_i, lever_j, r_eff, mu_r, fn, fe, kn, eta_r, inv_ir, iso_i, iso_j,
+                   dt):
     """Rolling torques on i and j and the new EPSD spring torque, given the stored one
     ``m``: ``(tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz)``.
 
     ``fn`` is the normal force clipped at 0 [N], ``fe`` the elastic ``k_n delta`` of the
     normal slot [N] (``normal.secant_force``), ``kn`` its tangent stiffness [N/m];
-    ``r_eff`` is R* for a pair and the sphere radius against a wall [m]."""
+    ``r_eff`` is R* for a pair and the sphere radius against a wall [m]; ``iso_i``,
+    ``iso_j`` the bodies' mean principal moments of inertia [kg m2] (0 for a wall), which
+    only the moment limiter reads."""
     # one exit (no early return), so that loops over contacts can be vectorised
     tix = 0.0
     tiy = 0.0
@@ -102,16 +125,21 @@ def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
             tjz = -tiz
     elif fn <= 0.0:
         pass
-    elif model == ROLLING_CONSTANT:
+    elif model == ROLLING_CONSTANT or model == ROLLING_LIMITED:
         wi = sqrt(wix * wix + wiy * wiy + wiz * wiz)
         if wi > 0.0:
             a = -mu_r * fn * lever_i / wi
+            if model == ROLLING_LIMITED:
+                # |tau| = |a| |w|: the cap f I |w| / dt on the torque is f I / dt on |a|
+                a = max(a, -MOMENT_LIMITER * iso_i / dt)
             tix = a * wix
             tiy = a * wiy
             tiz = a * wiz
         wj = sqrt(wjx * wjx + wjy * wjy + wjz * wjz)
         if wj > 0.0:
             b = -mu_r * fn * lever_j / wj
+            if model == ROLLING_LIMITED:
+                b = max(b, -MOMENT_LIMITER * iso_j / dt)
             tjx = b * wjx
             tjy = b * wjy
             tjz = b * wjz
