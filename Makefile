@@ -3,8 +3,8 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
-# numba's cache of the engine: demcal itself picks $(VENV)/numba-cache (sys.prefix/numba-cache)
-# unless NUMBA_CACHE_DIR is set, so `make` and a bare .venv/bin/demcal share it.
+# numba's cache of the engine: demcal itself picks $(VENV)/numba-cache/engine-<hash of its sources>
+# (sys.prefix/numba-cache) unless NUMBA_CACHE_DIR is set, so `make` and a bare .venv/bin/demcal share it.
 
 .PHONY: demo test test-slow bench clean
 

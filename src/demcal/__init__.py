@@ -3,7 +3,9 @@
 Importing demcal picks where numba keeps the engine's compiled kernels, so that every
 way of running it (``make``, a bare ``.venv/bin/demcal``, a script, the campaign
 workers, which inherit the environment) finds the same cache and compiles only once:
-``NUMBA_CACHE_DIR`` when it is set, else :func:`numba_cache_dir`.
+``NUMBA_CACHE_DIR`` when it is set, else a folder of :func:`numba_cache_dir` named
+after the hash of the engine's sources (:func:`engine_cache_dir`), so that code of two
+versions of the engine never shares cached kernels.
 """
 
 import os
@@ -46,15 +48,46 @@ def numba_cache_dir() -> str | None:
     return user if _writable_folder(user) else None
 
 
+#: folders of other engine versions are removed once unused this long [s] (a process
+#: of an older version may still be running and writing to its own folder)
+STALE_ENGINE_CACHE_S = 24 * 3600
+
+
+def engine_cache_dir(base: str) -> str:
+    """``<base>/engine-<hash of the engine's sources>``; removes the folders of other
+    engine versions under ``base`` that nothing has written to for
+    :data:`STALE_ENGINE_CACHE_S` (best effort)."""
+    import shutil
+    import time
+
+    from demcal import _engine_sources
+
+    name = "engine-" + _engine_sources.digest()
+    try:
+        os.utime(os.path.join(base, name))   # in use: not stale for the versions to come
+    except OSError:
+        pass
+    try:
+        for entry in os.scandir(base):
+            if (entry.is_dir() and entry.name.startswith("engine-") and entry.name != name
+                    and time.time() - entry.stat().st_mtime > STALE_ENGINE_CACHE_S):
+                shutil.rmtree(entry.path, ignore_errors=True)
+    except OSError:
+        pass
+    return os.path.join(base, name)
+
+
 def _choose_numba_cache() -> None:
-    """Set ``NUMBA_CACHE_DIR`` to :func:`numba_cache_dir` unless the user set it; before
-    numba is imported (or, if it already is, make it read the variable again before the
-    engine's functions are defined)."""
+    """Set ``NUMBA_CACHE_DIR`` to :func:`engine_cache_dir` of :func:`numba_cache_dir`
+    unless the user set it; before numba is imported (or, if it already is, make it read
+    the variable again before the engine's functions are defined). Processes started
+    from this one (campaign workers) inherit the variable, and with it the folder."""
     if "NUMBA_CACHE_DIR" in os.environ:
         return
     folder = numba_cache_dir()
     if folder is None:
         return
+    folder = engine_cache_dir(folder)
     os.environ["NUMBA_CACHE_DIR"] = folder
     numba = sys.modules.get("numba")
     if numba is not None:

@@ -3,51 +3,43 @@ threading layer.
 
 numba's ``cache=True`` only notices changes to the file that defines a function, not to
 the kernels it calls (a driver in ``forces.py`` inlines ``contact/*.py`` and
-``geometry/kernels.py``). :func:`guard` hashes every engine source the drivers depend on
-and, when the hash differs from the one recorded next to the cache, deletes the
-engine's cache files so they are recompiled. Cheap (a few ms); :func:`ensure` runs it once per
-process, when the first :class:`~demcal.dem.Simulation` is built (importing
-:mod:`demcal.dem` changes no file).
+``geometry/kernels.py``). Two things keep a changed kernel out of the cache:
 
-It also touches the engine's Python files then. A process started before the change
-still compiles the old code, and may write it to the cache after the files were
-deleted; numba keys each cache index on the modification time of the file defining
-the functions, so with the new times such late entries are never loaded.
+* Where demcal picks the cache folder (``NUMBA_CACHE_DIR`` not set by the user), the
+  folder is named after the hash of the engine's sources
+  (:mod:`demcal._engine_sources`, ``<numba-cache>/engine-<hash>``), so that code of two
+  versions never shares a folder: a process started before the sources changed keeps
+  writing the old code into the old folder, where no process of the new sources looks
+  (numba 0.68 keys an entry on its defining file's bytes only, so an entry of the
+  step loop compiled with old kernels would otherwise be loaded as current).
+* In a folder the user named, :func:`guard` deletes the engine's cache files when the
+  hash differs from the one recorded there. Cheap (a few ms); :func:`ensure` runs it
+  once per process, when the first :class:`~demcal.dem.Simulation` is built
+  (importing :mod:`demcal.dem` changes no file). A process that imported the old
+  sources and writes after the deletion is not kept out there: give each concurrent
+  job its own ``NUMBA_CACHE_DIR`` while sources change (``bench_study.py
+  --separate-caches``), or leave the folder to demcal.
 
-The cache lives where ``NUMBA_CACHE_DIR`` says; importing :mod:`demcal` sets it when
-the user did not (:func:`demcal.numba_cache_dir`, ``<sys.prefix>/numba-cache``), so
-``make`` and a bare ``demcal`` share one cache. When numba has to compile one of the
-engine's functions (nothing in the cache yet, or the sources changed), :data:`COMPILING`
-is printed once per process on standard error, so that the wait is not silent.
+When numba has to compile one of the engine's functions (nothing in the cache yet, or
+the sources changed), :data:`COMPILING` is printed once per process on standard error,
+so that the wait is not silent.
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 import sys
 from pathlib import Path
 
+from demcal import _engine_sources
+
 _HERE = Path(__file__).resolve().parent
-# the modules holding compiled code, the constants they import, and the named tuples
-# the compiled step loop takes (numba's cache index pickles their classes by name: an
-# index naming a class that is gone cannot even be read, so it must be cleared)
-_SOURCES = [_HERE / "forces.py", _HERE / "integrator.py", _HERE / "neighbours.py",
-            _HERE / "stepper.py", _HERE / "storage.py", _HERE / "walltable.py",
-            _HERE / "backend.py",
-            *(_HERE / "contact").glob("*.py"),
-            _HERE.parent / "geometry" / "kernels.py",
-            _HERE.parent / "geometry" / "placement.py",
-            _HERE.parent / "particles" / "materials.py"]
+# the files whose hash keys the engine's cache (see demcal._engine_sources)
+_SOURCES = _engine_sources.sources()
 
 
 def _digest() -> str:
-    h = hashlib.sha256()
-    for p in sorted(_SOURCES):
-        if p.exists():
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
-    return h.hexdigest()[:16]
+    return _engine_sources.digest(_SOURCES)
 
 
 def _cache_dirs():
@@ -117,8 +109,6 @@ def guard() -> None:
             for f in d.iterdir():
                 if f.suffix in (".nbi", ".nbc"):
                     f.unlink(missing_ok=True)
-        for src in [*_HERE.glob("*.py"), *(_HERE / "contact").glob("*.py")]:
-            os.utime(src)
         base.mkdir(parents=True, exist_ok=True)
         stamp.write_text(digest)
     except OSError:  # read-only install: numba falls back to its own checks
