@@ -2,8 +2,10 @@
 depth and rolling friction (the chatter hypothesis of docs/validation.md, ninth
 session). 432 spheres of 4.05-4.95 mm in a 55 mm open box, HSCM soil, 1 s, one thread:
 
-    python benchmarks/studies/bench-profiles-2026-11-25/chatter.py
+    python benchmarks/studies/bench-profiles-2026-11-25/chatter.py [MODEL ...]   # default: type_a type_c
 """
+import sys
+
 import numpy as np
 from demcal.dem import Simulation
 from demcal.geometry import Box, WallSet
@@ -28,7 +30,7 @@ def bed(mu_r, model, n_side=6, layers=12, r=0.0045, t=1.0):
     shallow = z > 2 * top / 3
     return np.sqrt((w[deep]**2).mean()), np.sqrt((w[shallow]**2).mean()), np.sqrt((np.linalg.norm(st.velocities,axis=1)**2).mean())
 
-for model in ("type_a", "type_c"):
+for model in (sys.argv[1:] or ("type_a", "type_c")):
     for mu_r in (0.1, 0.3):
         d, s, v = bed(mu_r, model)
         print(f"{model} mu_r {mu_r}: rms surface speed from spin, deep third {d*1e3:.3f} mm/s, top third {s*1e3:.3f} mm/s; rms speed {v*1e3:.3f} mm/s", flush=True)
