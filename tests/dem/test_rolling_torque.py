@@ -118,6 +118,10 @@ def hertz(r_eff, delta):
             2.0 * E_STAR * math.sqrt(r_eff * delta))
 
 
+#: the pair's reduced mass m* [kg]
+M_EFF = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+
+
 def tangential(w):
     return w - (w @ N) * N
 
@@ -148,7 +152,7 @@ def test_cdt_pair_takes_the_elastic_force_and_drops_twisting():
     assert ti == pytest.approx(LIGGGHTS_PAIR, rel=1e-12)
     # the test means something: the contact's normal force carries a damping part the
     # torque must not see, and the twisting part of w_r is large
-    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+    m_eff = M_EFF
     vn = (APPROACH - V_J) @ N
     fd = 2.0 * math.sqrt(5.0 / 6.0) * BETA * math.sqrt(sn * m_eff) * vn
     assert f == pytest.approx((fe + fd) * N, rel=REL)
@@ -175,12 +179,15 @@ def test_cdt_twisting_alone_gives_no_torque():
     assert np.abs(tj).max() < 1e-12 * hertz(R_I, DELTA)[0] * R_I
 
 
+def type_a_fn():
+    """Type A's normal force for the approaching pair: spring + Tsuji damping."""
+    fe, sn = hertz(R_I * R_J / (R_I + R_J), DELTA)
+    return fe + 2.0 * math.sqrt(5.0 / 6.0) * BETA * math.sqrt(sn * M_EFF) * ((APPROACH - V_J) @ N)
+
+
 def test_type_a_pair_torque():
     """EDEM standard: each body's own spin and lever, Fn with its damping part."""
-    fe, sn = hertz(R_I * R_J / (R_I + R_J), DELTA)
-    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
-    fd = 2.0 * math.sqrt(5.0 / 6.0) * BETA * math.sqrt(sn * m_eff) * ((APPROACH - V_J) @ N)
-    fn = fe + fd
+    fn = type_a_fn()
     ti, tj, _ = pair("type_a", APPROACH)
     assert ti == pytest.approx(-MU_R * fn * (R_I - DELTA / 2) * W_I / np.linalg.norm(W_I),
                                rel=REL)
@@ -200,7 +207,7 @@ def test_type_c_first_step_torque():
     inv_ir = 1.0 / inertia[0] + 1.0 / inertia[1]
     c_r = 2.0 * INTER.rolling_damping * math.sqrt(k_r / inv_ir)
     spring = -k_r * w_t * dt
-    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+    m_eff = M_EFF
     out = contact(NORMAL["hertz"], DAMPING["tsuji"], TANGENTIAL["mindlin"], ROLLING["type_c"],
                   pair_table(MaterialTable([SOFT], INTER)), 0, 0, np.zeros((1, HIST_WIDTH)), 0,
                   DELTA, *N, *(APPROACH - V_J), *W_I, *W_J, R_I - DELTA / 2,
@@ -258,7 +265,7 @@ def test_cdt_hysteretic_spring_takes_k1_delta():
                          Interaction(restitution=E, static_friction=0.0,
                                      rolling_friction=MU_R, damping_factor=0.2))
     r_eff = R_I * R_J / (R_I + R_J)
-    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+    m_eff = M_EFF
     k1 = 5.0 * r_eff * SOFT.yield_strength
     k2 = k1 / E ** 2
     delta0 = 1.05 * DELTA * (1.0 - E ** 2)      # the dent of an earlier, deeper overlap
@@ -291,17 +298,10 @@ ISO_J = 0.4 * mass(R_J) * R_J ** 2
 SLOW = 1e-5                                 # W_I, W_J scaled by this: the cap binds
 
 
-def type_a_fn():
-    """Type A's normal force for the approaching pair: spring + Tsuji damping."""
-    fe, sn = hertz(R_I * R_J / (R_I + R_J), DELTA)
-    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
-    return fe + 2.0 * math.sqrt(5.0 / 6.0) * BETA * math.sqrt(sn * m_eff) * ((APPROACH - V_J) @ N)
-
-
 def kernel_rolling(rolling, w_i, w_j, iso_i=ISO_I, iso_j=ISO_J):
     """Rolling torques on i and j from one call of the contact kernel (the approaching
     pair above, no sliding friction)."""
-    m_eff = mass(R_I) * mass(R_J) / (mass(R_I) + mass(R_J))
+    m_eff = M_EFF
     out = contact(NORMAL["hertz"], DAMPING["tsuji"], TANGENTIAL["mindlin"], ROLLING[rolling],
                   pair_table(MaterialTable([SOFT], INTER)), 0, 0, np.zeros((1, HIST_WIDTH)), 0,
                   DELTA, *N, *(APPROACH - V_J), *w_i, *w_j, R_I - DELTA / 2, R_J - DELTA / 2,
