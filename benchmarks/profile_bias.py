@@ -22,13 +22,14 @@ STUDY = "benchmarks/studies/bench-profiles-2026-11-25"
 #: (test, response, cheap, production, study files, date measured)
 ENTRIES = [
     ("incline", "sliding_angle_deg", "quick", "paper",
-     [f"{STUDY}/results-incline-and-quick.jsonl"], "2026-11-25"),
+     [f"{STUDY}/results-incline-and-quick.jsonl", f"{STUDY}/results-designs-device.jsonl"], "2026-11-27"),
+    # The funnel's paper - quick difference changes sign with the rolling friction (type A:
+    # -15 deg at 0.3, +9 to +12 deg at 0.1; docs/validation.md): measure() finds the slope in
+    # particle.rolling_friction and stores the bias as linear in it, with the points' scatter.
+    ("repose-funnel", "repose_angle_deg", "quick", "paper",
+     [f"{STUDY}/results-funnel-paper.jsonl", f"{STUDY}/results-incline-and-quick.jsonl",
+      f"{STUDY}/results-designs-device.jsonl"], "2026-11-27"),
 ]
-# Not the funnel: its two points at both profiles differ by -14.9 deg (Table 4 run 16)
-# and +9.4 deg (run 7), opposite signs; no constant bias describes that, and one stored
-# as their mean would mislead the loop. Over five Table 4 points the paper-profile heap
-# even falls as the rolling friction rises (correlation with the published heaps -0.98;
-# docs/validation.md).
 TARGET = ROOT / "src" / "demcal" / "data" / "profile_bias.json"
 
 

@@ -17,7 +17,7 @@ def _row(profile, mu, value, seed=1):
 
 
 def test_bias_is_the_mean_difference_of_the_points_means():
-    rows = [_row("quick", 0.4, 20.0), _row("quick", 0.4, 22.0), _row("paper", 0.4, 18.0),   # -3
+    rows = [_row("quick", 0.4, 20.0), _row("quick", 0.4, 22.0, 2), _row("paper", 0.4, 18.0),   # -3
             _row("quick", 0.6, 30.0, 1), _row("quick", 0.6, 30.0, 2), _row("paper", 0.6, 29.0),  # -1
             _row("quick", 0.5, 25.0)]  # no paper run: not a point
     b = profiles.measure("incline", "sliding_angle_deg", "quick", "paper", rows)
@@ -28,6 +28,50 @@ def test_bias_is_the_mean_difference_of_the_points_means():
     first = next(p for p in b.points if p["settings"] == {"film.static_friction": 0.4})
     assert (first["cheap_mean"], first["cheap_n"], first["production_n"]) == (21.0, 2, 1)
     assert first["production_sd"] is None
+
+
+def test_the_same_run_in_two_files_counts_once():
+    rows = [_row("quick", 0.4, 20.0), _row("quick", 0.4, 22.0, 2), _row("paper", 0.4, 18.0),
+            _row("quick", 0.6, 30.0), _row("paper", 0.6, 29.0)]
+    again = rows + [_row("quick", 0.4, 20.0), _row("paper", 0.6, 29.0)]
+    one = profiles.measure("incline", "sliding_angle_deg", "quick", "paper", rows)
+    two = profiles.measure("incline", "sliding_angle_deg", "quick", "paper", again)
+    assert one == two and one.points[0]["cheap_n"] == 2
+
+
+def _funnel(profile, gamma, mu, value, seed=1):
+    return {"test": "repose-funnel", "profile": profile, "seed": seed,
+            "set": {"particle.rolling_friction": gamma, "particle.static_friction": mu},
+            "responses": {"repose_angle_deg": value}}
+
+
+def test_a_difference_that_follows_a_setting_is_stored_as_a_slope_in_it():
+    """paper - quick = 10 - 100 (gamma - 0.2) exactly plus a scatter of +-0.5 that does not
+    follow mu: the F-test takes gamma, not mu, and the model gives the bias back."""
+    pts = [(0.1, 0.4, +0.5), (0.1, 0.5, -0.5), (0.2, 0.4, -0.5), (0.2, 0.5, +0.5), (0.3, 0.4, +0.5),
+           (0.3, 0.5, -0.5)]
+    rows = []
+    for gamma, mu, noise in pts:
+        rows += [_funnel("quick", gamma, mu, 30.0), _funnel("paper", gamma, mu, 30.0 + 10 - 100 * (gamma - 0.2) + noise)]
+    b = profiles.measure("repose-funnel", "repose_angle_deg", "quick", "paper", rows)
+    assert b.terms == ("particle.rolling_friction",)
+    assert b.reference == {"particle.rolling_friction": pytest.approx(0.2)}
+    assert b.bias == pytest.approx(10.0) and b.slopes[0] == pytest.approx(-100.0)
+    assert b.sd_resid == pytest.approx((6 * 0.25 / 4) ** 0.5)  # six residuals of 0.5, 4 dof
+    mean, sd = b.at({"particle.rolling_friction": 0.3, "particle.static_friction": 0.5})
+    assert mean == pytest.approx(0.0)
+    # at the reference the sd is the intercept's se and the scatter combined
+    assert b.at({})[1] == pytest.approx((b.se ** 2 + b.sd_resid ** 2) ** 0.5)
+    assert sd > b.at({})[1]  # further from the points' centre, less sure
+    assert "-100.0° per unit of particle.rolling_friction" in b.describe()
+
+
+def test_a_slope_the_points_do_not_resolve_stays_a_constant():
+    rows = []
+    for i, (gamma, d) in enumerate([(0.1, -1.0), (0.2, 1.0), (0.3, -1.2), (0.1, 0.9), (0.3, 1.1)]):
+        rows += [_funnel("quick", gamma, 0.4 + 0.01 * i, 30.0), _funnel("paper", gamma, 0.4 + 0.01 * i, 30.0 + d)]
+    b = profiles.measure("repose-funnel", "repose_angle_deg", "quick", "paper", rows)
+    assert b.terms == () and b.at({"particle.rolling_friction": 0.3})[0] == pytest.approx(b.bias)
 
 
 def test_one_point_is_not_a_bias():
@@ -54,6 +98,16 @@ def test_stored_lookup():
     assert b.production == "paper" and len(b.points) >= 2 and b.bias < 0
     assert "stored quick → paper bias" in b.describe()
     assert profiles.stored("incline", "sliding_angle_deg", "paper", "quick") is None
+
+
+def test_the_funnel_bias_is_stored_as_a_slope_in_the_rolling_friction():
+    """With type A rolling the paper-profile heap falls where the quick heap rises with
+    gamma (docs/validation.md): the stored funnel bias says so, and at gamma 0.1 and 0.3
+    it has opposite signs."""
+    b = profiles.stored("repose-funnel", "repose_angle_deg", "quick", "paper")
+    assert b is not None and b.terms == ("particle.rolling_friction",) and len(b.points) >= 5
+    assert b.slopes[0] < -50  # degrees per unit of gamma: about -13 deg per 0.1
+    assert b.at({"particle.rolling_friction": 0.1})[0] > 5 > -5 > b.at({"particle.rolling_friction": 0.3})[0]
 
 
 @pytest.mark.slow

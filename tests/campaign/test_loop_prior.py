@@ -61,3 +61,56 @@ def test_a_box_moves_only_when_it_misses_the_middle_half_of_the_lab_window():
     assert out_of_box(30.46, 3.2, 18.0, 26.35)
     assert not out_of_box(20.0, 2.0, 20.9, 30.0) and out_of_box(20.0, 2.0, 21.1, 30.0)  # from above
     assert out_of_box(25.0, None, 10.0, 24.99) and not out_of_box(25.0, None, 10.0, 25.0)  # no sd: the mean
+
+
+def _linear_bias():
+    """-2 deg at gamma 0.2, -100 deg per unit of gamma, exact (no covariance, no scatter)."""
+    return _bias(test="repose-funnel", response="repose_angle_deg", bias=-2.0, se=0.0, sd_points=5.0,
+                 terms=("particle.rolling_friction",), reference={"particle.rolling_friction": 0.2},
+                 slopes=(-100.0,), covariance=((0.0, 0.0), (0.0, 0.0)), sd_resid=0.0)
+
+
+def _on_box(bias):
+    """Box 0: factor 0 is gamma from 0.1 to 0.3 (coded -1..1), factor 1 something else."""
+    from demcal.campaign.loop import StoredPrior
+
+    def to_settings(x0):
+        return {"particle.rolling_friction": 0.2 + 0.1 * float(x0[0]), "particle.static_friction": 0.4}
+
+    return StoredPrior(bias, to_settings, 2)
+
+
+def test_a_linear_stored_bias_is_a_slope_in_the_coded_factor_and_keeps_it():
+    from demcal.campaign.loop import CorrectedSurface
+
+    prior = _on_box(_linear_bias())
+    assert prior.offset == pytest.approx(-2.0) and prior.slope == pytest.approx([-10.0, 0.0])
+    d = Discrepancy([], prior)
+    assert d.kind == "stored" and d(np.array([1.0, 0.0]))[0] == pytest.approx(-12.0)
+    # production runs set the level; the slope stays: residuals 1 deg above the line
+    own = Discrepancy([(np.array([-1.0, 0.0]), 8.0 + 1.0), (np.array([1.0, 0.5]), -12.0 + 1.0)], prior)
+    assert own.kind == "additive" and own.bias == pytest.approx(-1.0)
+    assert own(np.array([0.0, 0.0]))[0] == pytest.approx(-1.0)
+    assert own(np.array([0.5, 0.0]))[0] == pytest.approx(-6.0)
+    assert "about the stored slope" in own.describe()
+
+    class Flat:  # a cheap model of 30 deg everywhere
+        factors, response, y = ("a", "b"), "repose_angle_deg", np.array([30.0])
+
+        def predict(self, x):
+            x = np.asarray(x, float)
+            return 30.0 if x.ndim == 1 else np.full(len(x), 30.0)
+
+        def gradient(self, x):
+            return np.zeros_like(np.asarray(x, float))
+
+    surface = CorrectedSurface(Flat(), own)
+    assert surface.predict(np.array([1.0, 0.0])) == pytest.approx(30.0 - 1.0 - 10.0)
+    assert surface.predict(np.array([[1.0, 0.0], [-1.0, 0.0]])) == pytest.approx([19.0, 39.0])
+    assert surface.gradient(np.array([0.3, 0.3])) == pytest.approx([-10.0, 0.0])
+
+
+def test_a_constant_stored_bias_gives_the_additive_bias_as_before():
+    """With a constant prior the production runs' mean residual is the bias, bit for bit."""
+    res = [(np.zeros(3), -5.0), (np.ones(3), -4.0), (np.full(3, 0.5), -4.3)]
+    assert Discrepancy(res, _bias()).bias == Discrepancy(res).bias

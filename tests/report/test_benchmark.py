@@ -71,3 +71,26 @@ def test_a_stored_bias_adds_a_shifted_row(tmp_path, monkeypatch):
     assert quick.offset == pytest.approx(-1.0) and shifted.offset == pytest.approx(-4.0)
     assert shifted.slope == pytest.approx(quick.slope)
     assert shifted.points["sd"].iloc[0] == pytest.approx(0.4)  # no seed sd: the bias's se alone
+
+
+def test_a_stored_bias_linear_in_a_factor_shifts_each_point_by_its_own_value(tmp_path, monkeypatch):
+    """A bias of -1 deg at p.a = 0.6 and -100 deg per unit of p.a (-10 deg per coded unit):
+    each point moves by its own amount, and the slope against the paper changes."""
+    from demcal.bench import profiles
+
+    rows = [(-1, -1, 15.0), (1, -1, 35.0), (-1, 1, 25.0), (1, 1, 45.0)]
+    campaign = _campaign(tmp_path, rows)
+    campaign.settings = {"particle.x": 1}
+    records = [_record(a, b, y, settings={"particle.x": 1})
+               for a, b, y in [(0.5, 0.3, 14.0), (0.7, 0.3, 34.0), (0.5, 0.5, 24.0), (0.7, 0.5, 44.0)]]
+    bias = profiles.ProfileBias("t", "y", "quick", "paper", bias=-1.0, se=0.3, sd_points=9.0, points=({}, {}),
+                                terms=("p.a",), reference={"p.a": 0.6}, slopes=(-100.0,),
+                                covariance=((0.09, 0.0), (0.0, 4.0)), sd_resid=0.5)
+    monkeypatch.setattr(profiles, "stored", lambda *a: bias)
+    quick, shifted = compare(campaign, "y", records)
+    assert shifted.profile == "quick + stored bias to paper (-1.00° at the centre, -10.0° per 0.1 of p.a)"
+    low = shifted.points[shifted.points["A"] == -1]["demcal"].tolist()
+    high = shifted.points[shifted.points["A"] == 1]["demcal"].tolist()
+    assert low == pytest.approx([14.0 - 1 + 10, 24.0 - 1 + 10]) and high == pytest.approx([34.0 - 11, 44.0 - 11])
+    # the model's se at p.a = 0.5: sqrt(0.09 + 0.1^2 * 4), without the points' scatter
+    assert shifted.points["sd"].iloc[0] == pytest.approx((0.09 + 0.04) ** 0.5)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# The limited-rolling study on a lent 16-core machine (plan-limited-device.json): demcal from
+# A study on a lent 16-core machine (PLAN, default plan-limited-device.json): demcal from
 # the source tree with its bench entry points declared by a dist-info shim (nothing to
-# install), five runs at once, each result in $OUT/results.jsonl as it finishes.
+# install), JOBS runs at once (default 5), each result in $OUT/results.jsonl as it finishes.
 set -u
 site=/tmp/demcal-site; info=$site/demcal-0.dev0.dist-info
 mkdir -p "$info"
@@ -11,7 +11,7 @@ export PYTHONPATH=$PWD/src:$site PYTHONUNBUFFERED=1
 here=benchmarks/studies/bench-profiles-2026-11-25
 nproc; lscpu | grep -i "model name"
 python3 -c "import numba, numpy, scipy; print('numba', numba.__version__, 'numpy', numpy.__version__, 'scipy', scipy.__version__)"
-python3 -m demcal bench impact --json | head -c 200; echo
-timeout "${LIMIT:-530}" python3 benchmarks/bench_study.py "$here/plan-limited-device.json" "$OUT/results.jsonl" \
+[ "${SMOKE:-1}" = 1 ] && { python3 -m demcal bench impact --json | head -c 200; echo; }
+timeout "${LIMIT:-530}" python3 benchmarks/bench_study.py "$here/${PLAN:-plan-limited-device.json}" "$OUT/results.jsonl" \
     --jobs "${JOBS:-5}" --separate-caches /tmp/demcal-caches
 echo "study exit $?"

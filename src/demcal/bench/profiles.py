@@ -11,6 +11,15 @@ study's result files) and is kept here with the profiles, so that
   calibration is placed where the cheap surface *plus the stored bias* meets the target,
   instead of where the cheap surface alone does (``demcal.campaign.loop.Discrepancy``).
 
+The bias is a constant, or linear in the material values that it measurably depends
+on: :func:`measure` adds a setting to the model only when an F-test says its slope is
+real (p < 0.05) and two degrees of freedom remain (forward selection, the classic way to
+grow a regression from few points). With type A rolling the funnel's paper-profile heap
+falls where the quick heap rises with the rolling friction, so its bias is a slope in
+``particle.rolling_friction``; the incline's is a constant (docs/validation.md).
+:meth:`ProfileBias.at` gives the bias and its standard deviation at a point: the model's
+standard error there and the scatter of the points about the model, combined.
+
 The bias holds for the set-up it was measured with: the profiles' own settings, with
 only material values (``particle.*``, ``film.*``) changed between points. A campaign
 that fixes any other setting (a particle count, a plate, a rolling model) gets no stored
@@ -44,10 +53,34 @@ class ProfileBias:
     points: tuple = field(default=())  #: dicts: settings, cheap_mean/sd/n, production_mean/sd/n
     source: str = ""
     measured: str = ""
+    #: settings the bias is linear in (none: a constant); ``bias`` and ``se`` hold at
+    #: ``reference`` (their mean over the points), ``slopes`` are degrees per unit of each
+    terms: tuple = field(default=())
+    reference: dict = field(default_factory=dict)
+    slopes: tuple = field(default=())
+    covariance: tuple = field(default=())  #: of (bias, *slopes), rows; empty for a constant
+    sd_resid: float | None = None  #: scatter of the points about the model (None: sd_points)
+
+    def at(self, settings: Mapping[str, float]) -> tuple[float, float]:
+        """The bias at ``settings`` and its sd: the model's standard error there and the
+        points' scatter about the model, combined (a constant: ``hypot(se, sd_points)``).
+        A term missing from ``settings`` is taken at the reference."""
+        if not self.terms:
+            return self.bias, math.hypot(self.se, self.sd_points)
+        x = [1.0] + [float(settings.get(t, self.reference[t])) - self.reference[t] for t in self.terms]
+        mean = self.bias + sum(s * xi for s, xi in zip(self.slopes, x[1:]))
+        var = sum(x[i] * self.covariance[i][j] * x[j] for i in range(len(x)) for j in range(len(x)))
+        return mean, math.sqrt(max(var, 0.0) + self.sd_resid ** 2)
 
     def describe(self) -> str:
-        return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° "
-                f"(sd over {len(self.points)} design points {self.sd_points:.2f}°; measured {self.measured})")
+        if not self.terms:
+            return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° "
+                    f"(sd over {len(self.points)} design points {self.sd_points:.2f}°; measured {self.measured})")
+        linear = ", ".join(f"{s:+.1f}° per unit of {t}" for t, s in zip(self.terms, self.slopes))
+        at = ", ".join(f"{t} = {self.reference[t]:g}" for t in self.terms)
+        return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° at {at}, "
+                f"{linear} (scatter about it over {len(self.points)} design points {self.sd_resid:.2f}°; "
+                f"measured {self.measured})")
 
 
 def _load() -> list[ProfileBias]:
@@ -55,7 +88,9 @@ def _load() -> list[ProfileBias]:
     if not path.is_file():
         return []
     rows = json.loads(path.read_text())
-    return [ProfileBias(**{**r, "points": tuple(r.get("points", ()))}) for r in rows]
+    return [ProfileBias(**{**r, "points": tuple(r.get("points", ())), "terms": tuple(r.get("terms", ())),
+                           "slopes": tuple(r.get("slopes", ())),
+                           "covariance": tuple(tuple(c) for c in r.get("covariance", ()))}) for r in rows]
 
 
 def stored(test: str, response: str, cheap: str, production: str) -> ProfileBias | None:
@@ -81,12 +116,17 @@ def measure(test: str, response: str, cheap: str, production: str,
     """
     groups: dict[str, dict[str, list[float]]] = {}
     settings: dict[str, dict] = {}
+    seen = set()
     for row in runs:
         if row.get("test") != test or "responses" not in row or response not in row["responses"]:
             continue
         if row.get("profile") not in (cheap, production):
             continue
         key = json.dumps(row.get("set", {}), sort_keys=True)
+        run = (key, row["profile"], row.get("seed"))
+        if row.get("seed") is not None and run in seen:
+            continue  # the same run in two study files (a rerun on another machine) counts once
+        seen.add(run)
         settings[key] = row.get("set", {})
         groups.setdefault(key, {}).setdefault(row["profile"], []).append(float(row["responses"][response]))
     points = []
@@ -102,8 +142,59 @@ def measure(test: str, response: str, cheap: str, production: str,
                          f"{production}; a bias needs at least two.")
     diffs = [pt["production_mean"] - pt["cheap_mean"] for pt in points]
     sd = _sd(diffs)
-    return ProfileBias(test, response, cheap, production, _mean(diffs), sd / math.sqrt(len(diffs)), sd,
-                       tuple(points), source, measured)
+    terms, fit = _select_terms([pt["settings"] for pt in points], diffs)
+    if not terms:
+        return ProfileBias(test, response, cheap, production, _mean(diffs), sd / math.sqrt(len(diffs)), sd,
+                           tuple(points), source, measured)
+    coef, cov, s_resid, reference = fit
+    return ProfileBias(test, response, cheap, production, float(coef[0]), math.sqrt(cov[0][0]), sd,
+                       tuple(points), source, measured, terms=tuple(terms), reference=reference,
+                       slopes=tuple(float(c) for c in coef[1:]),
+                       covariance=tuple(tuple(float(v) for v in row) for row in cov), sd_resid=s_resid)
+
+
+def _fit(settings: list[dict], diffs: list[float], terms: list[str]):
+    """Least squares of the differences on the terms, centred on their mean: (coefficients,
+    their covariance, residual sd, reference), or None without two degrees of freedom."""
+    import numpy as np
+
+    n, k = len(diffs), len(terms) + 1
+    if n - k < 2:
+        return None
+    reference = {t: statistics.fmean(float(s[t]) for s in settings) for t in terms}
+    X = np.column_stack([np.ones(n)] + [[float(s[t]) - reference[t] for s in settings] for t in terms])
+    y = np.asarray(diffs, float)
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    ss = float(((y - X @ coef) ** 2).sum())
+    s2 = ss / (n - k)
+    return coef, (s2 * np.linalg.inv(X.T @ X)).tolist(), math.sqrt(s2), reference, ss
+
+
+def _select_terms(settings: list[dict], diffs: list[float]) -> tuple[list[str], tuple | None]:
+    """Forward selection: add the setting that explains most of the differences while its
+    partial F-test gives p < 0.05 and two degrees of freedom remain. Only settings that
+    every point has and that vary between points are candidates."""
+    from scipy import stats
+
+    names = set.intersection(*(set(s) for s in settings)) if settings else set()
+    candidates = sorted(t for t in names if len({round(float(s[t]), 9) for s in settings}) > 1)
+    mean = statistics.fmean(diffs)
+    ss_now = sum((d - mean) ** 2 for d in diffs)
+    chosen: list[str] = []
+    best_fit = None
+    while True:
+        trials = [(f, t) for t in candidates if t not in chosen
+                  for f in [_fit(settings, diffs, chosen + [t])] if f is not None]
+        if not trials:
+            break
+        fit, term = min(trials, key=lambda ft: ft[0][4])
+        dof = len(diffs) - len(chosen) - 2
+        ss_new = fit[4]
+        if ss_new > 0.0 and stats.f.sf((ss_now - ss_new) / (ss_new / dof), 1, dof) >= 0.05:
+            break
+        chosen.append(term)
+        best_fit, ss_now = fit[:4], ss_new
+    return chosen, best_fit
 
 
 def _mean(values) -> float:

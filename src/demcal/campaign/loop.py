@@ -11,7 +11,9 @@ boxes' designs, production runs -- carries those settings:
    must meet is the lab's mean minus the *discrepancy* between the production profile
    and the cheap model: until production runs exist, the bias measured between the two
    profiles in a bench study and stored with them (:mod:`demcal.bench.profiles`, e.g.
-   ``quick`` -> ``paper``) where one applies to the campaign's settings, else zero.
+   ``quick`` -> ``paper``) where one applies to the campaign's settings, else zero. A
+   stored bias that is linear in a material value (the funnel's, in the rolling
+   friction) keeps its slope after production runs exist; they set its level.
 2. **Move the box** when that target lies outside what the model reaches in the box
    by more than half the lab sd (a box that reaches the middle half of the lab's
    window is solved where it is, at its edge: the verification accepts any mean inside
@@ -191,30 +193,65 @@ def _point(campaign: Campaign, record: RunRecord) -> np.ndarray:
     return np.array([float(record.parameters[f.parameter]) for f in campaign.factors])
 
 
+class StoredPrior:
+    """A stored profile bias (:class:`demcal.bench.profiles.ProfileBias`) on a campaign's
+    box-0 coded units: ``to_settings`` maps a coded point to the settings the bias reads.
+
+    The bias is linear in the settings and the settings in the coded units, so its mean
+    is ``offset + slope . x0``; ``slope`` is None for a constant bias (or without
+    ``to_settings``: then the bias is taken at its reference)."""
+
+    def __init__(self, bias, to_settings: Callable[[np.ndarray], dict] | None = None, k: int = 0):
+        self.bias = bias
+        self._to = to_settings if to_settings is not None else (lambda x0: {})
+        self.offset = float(bias.at(self._to(np.zeros(k)))[0])
+        self.slope = None
+        if getattr(bias, "terms", ()) and to_settings is not None:
+            self.slope = np.array([bias.at(self._to(np.eye(k)[j]))[0] - self.offset for j in range(k)])
+
+    def __call__(self, x0) -> tuple[float, float]:
+        return tuple(float(v) for v in self.bias.at(self._to(np.asarray(x0, float))))
+
+    def linear(self, pts0: np.ndarray) -> np.ndarray | float:
+        """The slope part at box-0 coded points (0 for a constant bias)."""
+        return 0.0 if self.slope is None else np.atleast_2d(pts0) @ self.slope
+
+    def describe(self) -> str:
+        return self.bias.describe()
+
+
 class Discrepancy:
     """``production - cheap model`` as an additive bias (+ a Gaussian process once
     there are ``k + 2`` distinct production points).
 
     Each residual is a production run's response minus the cheap model of the box it
     was solved in, at its point (so a moved box keeps what earlier boxes learnt); the
-    Gaussian process works in the coded units of the campaign's own box, box 0.
+    Gaussian process works in the coded units of the campaign's own box, box 0. A stored
+    prior (:class:`StoredPrior`) is the discrepancy until residuals exist; a linear one
+    keeps its slope after (the residuals are taken about it and set its level).
     """
 
     def __init__(self, residuals: Sequence[tuple[np.ndarray, float]], prior=None):
+        if prior is not None and not isinstance(prior, StoredPrior):
+            prior = StoredPrior(prior)
         self.n = len(residuals)
         self.kind = "none"
         self.bias, self.bias_se = 0.0, float("nan")
         self.gp = None
         self.distinct = 0
         self.prior = prior
+        self.slope = prior.slope if prior is not None else None
         if not residuals:
             if prior is not None:  # a bias measured between the profiles (demcal.bench.profiles)
                 self.kind = "stored"
-                # its uncertainty at a new point: the mean's se and the spread between points
-                self.bias, self.bias_se = prior.bias, float(math.hypot(prior.se, prior.sd_points))
+                # its uncertainty at a new point: the model's se there and the points' scatter
+                self.bias, self.bias_se = prior.offset, prior(np.zeros(0 if self.slope is None
+                                                                       else len(self.slope)))[1]
             return
         x = np.array([p for p, _ in residuals], dtype=float)
         res = np.array([r for _, r in residuals], dtype=float)
+        if self.slope is not None:
+            res = res - x @ self.slope
         self.kind = "additive"
         self.bias = float(res.mean())
         self.bias_se = float(res.std(ddof=1) / math.sqrt(len(res))) if len(res) > 1 else float("nan")
@@ -238,12 +275,19 @@ class Discrepancy:
                                                    n_restarts_optimizer=2).fit(x, res - self.bias)
             self.kind = "gaussian process"
 
+    def linear(self, pts0) -> np.ndarray | float:
+        """The stored slope's part at box-0 coded points (0 without one)."""
+        return 0.0 if self.slope is None else np.atleast_2d(pts0) @ self.slope
+
     def __call__(self, coded0) -> tuple[float, float]:
         """Mean and standard deviation of the discrepancy at one point (box-0 coded)."""
+        line = float(np.ravel(self.linear(coded0))[0]) if self.slope is not None else 0.0
+        if self.kind == "stored":
+            return self.prior(coded0)
         if self.gp is None:
-            return self.bias, self.bias_se
+            return self.bias + line, self.bias_se
         mean, sd = self.gp.predict(np.atleast_2d(coded0), return_std=True)
-        return self.bias + float(mean[0]), float(sd[0])
+        return self.bias + line + float(mean[0]), float(sd[0])
 
     def describe(self) -> str:
         if self.kind == "none":
@@ -252,6 +296,8 @@ class Discrepancy:
             return f"no production run yet: {self.prior.describe()}"
         se = f" ± {self.bias_se:.2f}" if np.isfinite(self.bias_se) else ""
         text = f"additive bias {self.bias:+.2f}{se} from {self.n} production runs"
+        if self.slope is not None:
+            text += f" about the stored slope ({self.prior.describe()})"
         if self.gp is not None:
             text += f", Gaussian process over {self.distinct} points ({self.gp.kernel_})"
         return text
@@ -280,9 +326,16 @@ class CorrectedSurface:
     def _gp(self, pts: np.ndarray) -> np.ndarray:
         return self.discrepancy.gp.predict(pts * self._scale + self._shift)
 
+    def _line(self, coded: np.ndarray):
+        """The stored slope's part (box coded in, per point out), 0 without one."""
+        if self.discrepancy.slope is None:
+            return 0.0
+        line = self.discrepancy.linear(np.atleast_2d(coded) * self._scale + self._shift)
+        return line[0] if coded.ndim == 1 else line
+
     def predict(self, coded):
         coded = np.asarray(coded, float)
-        base = self.model.predict(coded)
+        base = self.model.predict(coded) + self._line(coded)
         if self.discrepancy.gp is None:
             return base + self.discrepancy.bias
         extra = self.discrepancy.bias + self._gp(np.atleast_2d(coded))
@@ -291,6 +344,8 @@ class CorrectedSurface:
     def gradient(self, coded):
         coded = np.asarray(coded, float)
         grad = self.model.gradient(coded)
+        if self.discrepancy.slope is not None:
+            grad = grad + self.discrepancy.slope * self._scale
         if self.discrepancy.gp is None:
             return grad
         pts = np.atleast_2d(coded)
@@ -391,6 +446,24 @@ def out_of_box(mean: float, sd: float | None, lo: float, hi: float) -> bool:
     return hi < mean - near or lo > mean + near
 
 
+def prior_on_box(bias, campaign: Campaign, condition: Condition, box0: Box, profile: str) -> StoredPrior:
+    """A stored bias read at the settings of box-0 coded points: the bench's defaults at
+    ``profile``, the campaign's and the condition's fixed settings, the factors' values."""
+    from demcal.bench.registry import get_experiment
+
+    try:
+        base = {k: s.default for k, s in get_experiment(campaign.test).settings(profile).items()}
+    except Exception:  # a plug-in without settings for this profile: the bias's reference
+        base = {}
+    base = {**base, **campaign.settings, **condition.fixed}
+    names = [f.parameter for f in campaign.factors]
+
+    def to_settings(x0):
+        return {**base, **dict(zip(names, box0.to_actual(x0)))}
+
+    return StoredPrior(bias, to_settings, len(names))
+
+
 def stored_priors(campaign: Campaign, cheap: str, production: str) -> dict:
     """Response -> the bias measured between ``cheap`` and ``production`` for the campaign's
     test (:mod:`demcal.bench.profiles`), where one applies to its fixed settings."""
@@ -428,6 +501,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     moves = 0
     replicates = first_replicates
     box0 = box
+    on_box = {r: prior_on_box(b, campaign, condition, box0, cheap) for r, b in priors.items()}
     #: response -> [(box-0 coded point, production - cheap model)], shared by the conditions
     residuals = {} if residuals is None else residuals
     counted: set[str] = set()
@@ -449,7 +523,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             full, models, removed, fit_notes, table = fit_box(campaign, box, records(), cheap, design_table)
             notes.extend(n for n in fit_notes if n not in notes)
             state.update(models=models, full=full, removed=removed)
-            disc = {r: Discrepancy(residuals.get(r, []), priors.get(r)) for r in responses}
+            disc = {r: Discrepancy(residuals.get(r, []), on_box.get(r)) for r in responses}
             state["disc"] = disc
             centre0 = box0.to_coded(box.centre)
             cheap_target = {t.response: t.mean - disc[t.response](centre0)[0] for t in condition.targets}
