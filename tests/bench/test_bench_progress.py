@@ -23,21 +23,44 @@ class _Terminal(io.StringIO):
 
 
 class _Sim:
-    """What the progress reads of a simulation; each run costs ``wall_per_step`` seconds
-    of the fake clock, and hands the simulation to ``extra_reporters`` at its end, as
-    the benches' simulations do (``make_simulation``)."""
+    """What the progress reads of a simulation; each step costs ``wall_per_step`` seconds
+    of the fake clock. ``run`` is the engine's run control in small (``dem/control.py``):
+    reporters asked when they next want data, reported to when due, ended by
+    ``StopRun``, and ``extra_reporters`` added to every run as the benches'
+    simulations do (``make_simulation``)."""
 
     def __init__(self, clock, dt=0.01, wall_per_step=0.1):
         self.clock, self.dt, self.wall_per_step = clock, dt, wall_per_step
         self.time, self.step_count, self.n_particles = 0.0, 0, 0
         self.extra_reporters = ()
 
-    def run(self, steps):
-        self.step_count += steps
-        self.time = self.step_count * self.dt
-        self.clock.now += steps * self.wall_per_step
-        for r in self.extra_reporters:
-            r.finish(self)
+    def run(self, steps, reporters=()):
+        from types import SimpleNamespace
+
+        from demcal.dem.reporters import StopRun
+
+        reporters = [*reporters, *self.extra_reporters]
+        for r in reporters:
+            if hasattr(r, "start"):
+                r.start(self, steps)
+        done, stopped = 0, None
+        try:
+            while done < steps:
+                want = [max(1, int(r.next_report(self))) for r in reporters]
+                n = min([steps - done] + want)
+                self.step_count += n
+                self.time = self.step_count * self.dt
+                self.clock.now += n * self.wall_per_step
+                done += n
+                for r, k in zip(reporters, want):
+                    if k == n:
+                        r.report(self)
+        except StopRun as stop:
+            stopped = stop.reason
+        finally:
+            for r in reporters:
+                r.finish(self) if hasattr(r, "finish") else None
+        return SimpleNamespace(stopped=stopped)
 
 
 def test_status_line_in_a_log_is_plain_lines_every_interval():

@@ -68,7 +68,8 @@ import numpy as np
 from demcal.bench.registry import RunResult, Setting, resolve_settings
 from demcal.dem.contact.registry import preset_names, rolling_names
 from demcal.dem.contact.table import coefficient_names, declared_coefficient
-from demcal.errors import ConfigError, SimulationError
+from demcal.dem.reporters import Reporter, StopRun
+from demcal.errors import ConfigError
 from demcal.geometry.motion import Motion
 
 PROFILES = ("tiny", "quick", "paper")
@@ -480,63 +481,57 @@ class Progress:
             self._status.close()
 
 
-class VtkWriter:
-    """Writes a frame every ``interval`` [s] of simulated time when enabled (the point
-    data of :data:`demcal.io.vtk.STATE_FIELDS`)."""
+class Watch:
+    """The engine reporters every phase of a bench test runs with
+    (:mod:`demcal.dem.reporters`): a blow-up check (non-finite positions or velocities)
+    every ``interval`` steps, and with ``vtk`` a frame every ``FRAME`` seconds of
+    simulated time into ``out_dir/vtk`` (the point data of
+    :data:`demcal.io.vtk.STATE_FIELDS`, with ``walls``)."""
 
-    def __init__(self, out_dir, enabled: bool, interval: float, walls=None, name: str = "bench"):
-        self.enabled = bool(enabled and out_dir is not None)
-        self.interval = interval
-        self.next_time = 0.0
-        self.walls = walls
-        self.series = None
-        if self.enabled:
-            from demcal.io.vtk import VtkSeries
+    #: Simulated seconds between two VTK frames.
+    FRAME = 0.05
 
-            folder = Path(out_dir, "vtk")
-            folder.mkdir(parents=True, exist_ok=True)
-            self.series = VtkSeries(folder, name=name)
+    def __init__(self, sim, what: str, interval: int, out_dir=None, vtk: bool = False, walls=None,
+                 name: str = "bench"):
+        from demcal.dem.reporters import BlowUpDetector, VTKReporter
 
-    def __call__(self, sim, force: bool = False) -> None:
-        if not self.enabled or (sim.time + 1e-12 < self.next_time and not force):
-            return
-        st = sim.state
-        if st.radii.size:
-            self.series.write_state(sim.time, st, walls=self.walls)
-        self.next_time = sim.time + self.interval
+        self.sim = sim
+        self.blowup = BlowUpDetector(interval, max_speed=math.inf, what=f"{what} simulation",
+                                     fix="lower time.step_fraction")
+        self.vtk = None
+        if vtk and out_dir is not None:
+            dt = sim.description.dt or sim.dt  # the tests give their step
+            self.vtk = VTKReporter(Path(out_dir, "vtk"), max(1, int(round(self.FRAME / dt))), name=name,
+                                   walls=walls is not None)
+        self.reporters = [r for r in (self.vtk, self.blowup) if r is not None]
+
+    def check(self) -> None:
+        """The blow-up check now (outside a run)."""
+        self.blowup.report(self.sim)
+
+    def last_frame(self) -> None:
+        """A VTK frame of the final state (if VTK is on)."""
+        if self.vtk is not None and self.sim.n_particles:
+            self.vtk.report(self.sim)
 
     @property
     def path(self):
-        return str(self.series.pvd_path) if self.enabled and self.series.frames else None
+        return str(self.vtk.pvd_path) if self.vtk is not None and self.vtk.pvd_path else None
 
 
 def rms_speed(sim) -> float:
-    """sqrt(2 KE / M) of the free particles [m/s] (KE includes rotation)."""
-    st = sim.state
-    free = ~st.fixed
-    m = float(st.masses[free].sum())
-    return math.sqrt(2.0 * sim.kinetic_energy() / m) if m > 0 else 0.0
+    """sqrt(2 KE / M) of the free particles [m/s] (KE includes rotation): the engine's
+    :attr:`~demcal.dem.reporters.Snapshot.rms_speed`."""
+    return sim.snapshot().rms_speed
 
 
-def check_finite(sim, what: str) -> None:
-    st = sim.state
-    if not np.all(np.isfinite(st.positions)) or not np.all(np.isfinite(st.velocities)):
-        raise SimulationError(
-            f"the {what} simulation blew up at t = {sim.time:.3g} s (non-finite positions); "
-            "lower time.step_fraction.")
+def rest(limit: float, ready=None):
+    """The kinetic-energy rest criterion, :func:`rms_speed` below ``limit`` [m/s] at two
+    checks in a row: the engine's :class:`~demcal.dem.reporters.RestDetector` (its
+    interval is set by :func:`run_until`)."""
+    from demcal.dem.reporters import RestDetector
 
-
-class Settle:
-    """The kinetic-energy rest criterion: :func:`rms_speed` below ``limit`` [m/s] at two
-    checks in a row."""
-
-    def __init__(self, sim, limit):
-        self.sim, self.limit, self.hits = sim, limit, 0
-
-    def __call__(self, extra_ok=True) -> bool:
-        v = rms_speed(self.sim)
-        self.hits = self.hits + 1 if (extra_ok and v < self.limit) else 0
-        return self.hits >= 2
+    return RestDetector(1, limit, checks=2, ready=ready)
 
 
 class BenchExperiment:
@@ -591,23 +586,65 @@ class BenchExperiment:
         raise NotImplementedError
 
 
-def run_until(sim, chunk: float, stop: Callable[[], bool], max_time: float,
-              each: Callable[[], None] | None = None) -> bool:
-    """Advance in ``chunk`` [s] pieces until ``stop()`` or ``sim.time >= max_time``.
+def show(sim) -> None:
+    """Hand ``sim`` to the running test's progress display, if it is shown. The bench
+    reporters call it when they report: the display reads the state only where the test
+    reads it anyway, so showing progress never changes when the engine sorts (and so
+    never a result)."""
+    progress = _PROGRESS.get()
+    if progress is not None and progress.enabled:
+        progress.update(sim)
 
-    ``each()`` runs after every chunk (insertion, controllers, VTK). Returns whether
-    ``stop()`` became true. The test's progress shows ``max_time`` as the limit.
+
+class _Phase(Reporter):
+    """One phase of a bench test as an engine reporter: every ``interval`` steps the
+    progress display and ``each()``, then the phase's end (``stop()`` true: "done") and
+    its time limit."""
+
+    def __init__(self, interval, each, stop, max_time, progress: bool):
+        super().__init__(interval)
+        self.each, self.stop, self.max_time, self.progress = each, stop, max_time, progress
+
+    def report(self, sim):
+        if self.progress:
+            show(sim)
+        if self.each is not None:
+            self.each()
+        if self.stop is not None and self.stop():
+            raise StopRun("done")
+        if sim.time >= self.max_time:
+            raise StopRun("time limit")
+
+
+def run_until(sim, chunk: float, stop, max_time: float, each: Callable[[], None] | None = None,
+              reporters=()) -> bool:
+    """Run one phase of a test on the engine's run control until ``stop`` or
+    ``sim.time >= max_time``, looking every ``chunk`` [s].
+
+    ``stop`` is a callable (true: the phase is over) or an engine reporter that ends the
+    run with :class:`~demcal.dem.reporters.StopRun` (a :func:`rest` criterion); it is
+    asked every ``chunk``, after ``each()`` (insertion, controllers) and ``reporters``
+    (a :class:`Watch`'s). Returns whether the phase ended by ``stop``. The test's progress
+    shows ``max_time`` as the limit.
     """
     steps = max(1, int(round(chunk / sim.dt)))
+    if sim.time >= max_time:
+        return False
     progress = _PROGRESS.get()
+    if hasattr(stop, "next_report"):  # an engine reporter: it looks at the phase's pace
+        stop.interval = steps
+        end = stop
+    else:
+        end = _Phase(steps, None, stop, math.inf, False)
+    for r in reporters:
+        if hasattr(r, "max_speed"):  # a Watch's blow-up check, at the phase's pace
+            r.interval = steps
+    # all due every `steps`, in this order: progress and each(), the watch, the end, the limit
+    ordered = [_Phase(steps, each, None, math.inf, True), *reporters, end,
+               _Phase(steps, None, None, max_time, False)]
     with progress.time_limit(max_time) if progress is not None else contextlib.nullcontext():
-        while sim.time < max_time:
-            sim.run(steps=steps)
-            if each is not None:
-                each()
-            if stop():
-                return True
-    return False
+        summary = sim.run(steps=1 << 62, reporters=ordered)
+    return summary.stopped in ("done", "at rest")
 
 
 class DrivenTranslation(Motion):

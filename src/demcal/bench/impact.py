@@ -22,10 +22,9 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from demcal.bench import common as C
 from demcal.bench.registry import Setting, register
+from demcal.dem.reporters import Reporter, StopRun
 from demcal.errors import SimulationError
 
 TARGETS = ("particle", "wall", "film")
@@ -86,29 +85,45 @@ class Impact(C.BenchExperiment):
             return float(st.velocities[0, 2])
 
         t_max = 50.0 * (gap / v) + 1.0
-        touched = False
-        steps = 0
-        while sim.time < t_max:
-            sim.run(steps=10)
-            steps += 10
-            d = separation()
-            if d < 0:
-                touched = True
-            elif touched and d > 0.0:
-                sim.run(steps=10)  # clear of the contact (and of its skin)
-                break
-        else:
+        watch = C.Watch(sim, "impact", 10)
+        contact = _Contact(separation, t_max)
+        summary = sim.run(steps=1 << 62, reporters=[contact])
+        if summary.stopped != "clear":
             raise SimulationError("the impact did not finish (the sphere stuck to its target); "
                                   "check the restitution and damping settings.")
         vn = normal_speed()
         e = vn / v
-        C.check_finite(sim, "impact")
+        watch.check()
         if not math.isfinite(e):
             raise SimulationError("the impact simulation blew up; lower time.step_fraction.")
         progress(f"impact on {target}: e = {e:.5f} (set {s[_prefix(target) + '.restitution']:.5f})")
         return dict(responses={"restitution": float(e)},
                     spread={}, particles=sim.n_particles, steps=sim.step_count,
                     simulated_s=sim.time, artifacts={})
+
+
+class _Contact(Reporter):
+    """The impact as an engine reporter, every 10 steps: once the gap has closed and
+    opened again, 10 steps more (clear of the contact and its skin), then
+    ``StopRun("clear")``; ``StopRun("time limit")`` if the time ``t_max`` passes first."""
+
+    def __init__(self, separation, t_max):
+        super().__init__(10)
+        self.separation, self.t_max = separation, t_max
+        self.touched = self.opened = False
+
+    def report(self, sim):
+        C.show(sim)
+        if self.opened:
+            raise StopRun("clear")
+        d = self.separation()
+        if d < 0:
+            self.touched = True
+        elif self.touched and d > 0.0:
+            self.opened = True
+            return
+        if sim.time >= self.t_max:
+            raise StopRun("time limit")
 
 
 def _prefix(target: str) -> str:

@@ -77,6 +77,7 @@ import numpy as np
 
 from demcal.bench import common as C
 from demcal.bench.registry import Setting, register
+from demcal.dem.reporters import Reporter, StopRun
 from demcal.errors import ConfigError, SimulationError
 
 #: Controller and sampling interval [s].
@@ -196,21 +197,17 @@ class Incline(C.BenchExperiment):
             ins = insert(region, n, tpl, sizes=sizes, seed=seed)
             sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales, seed=seed)
             settle_time = None
-        vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "incline")
+        watch = C.Watch(sim, "incline", 1, out_dir, vtk, walls, "incline")
         progress(f"incline: {'one rigid block' if block else f'{n} particles'}, dt {sim.dt:.3g} s, "
                  f"tilt {math.degrees(rate):g} deg/s from {start:g} deg")
-
-        def each():
-            vtkw(sim)
-            C.check_finite(sim, "incline")
 
         # 1. the bed settles on the flat plate
         max_time = float(s["time.max_time"])
         if settle_time is not None:
             sim.run(duration=settle_time)
         else:
-            rest = C.Settle(sim, float(s["time.rest_speed"]))
-            if not C.run_until(sim, 0.02, rest, max_time, each):
+            rest = C.rest(float(s["time.rest_speed"]))
+            if not C.run_until(sim, 0.02, rest, max_time, reporters=watch.reporters):
                 raise SimulationError(f"the bed did not settle within time.max_time = {max_time:g} s; "
                                       "raise time.max_time.")
             if s["incline.container"] == "remove":
@@ -218,68 +215,18 @@ class Incline(C.BenchExperiment):
         progress(f"bed at rest at t {sim.time:.2f} s; tilting")
 
         # 2. tilt gravity at a constant rate; the container follows the material
-        t0 = sim.time
-        weight = float(sim.state.masses.sum()) * C.G
-        follow = container is not None and s["incline.container"] == "follow"
-        rigid = container is not None and s["incline.container"] == "rigid"
-        v_ref = float(s["incline.container_yield"])
-        steps = max(1, int(round(CHECK / sim.dt)))
-        sub = max(1, int(round(RIGID_CHECK / sim.dt))) if rigid else steps
-        rim = RigidContainer(float(s["incline.container_mass"]) * weight,
-                             float(s["incline.container_friction"]), v_ref, weight)
-        times, angles, speeds = [], [], []
-        film_ratio, push_ratio = [], []  # mobilised film friction; container push / weight
-        v_detect = float(s["incline.slide_speed"])
-        x0 = _mean_x(sim)
-        last = [0.0]
-        visible = float(s["incline.visible_mm"]) * 1e-3
-        moved_at = None  # tilt [deg] when the material had moved `visible` down the slope
-
-        def tilt_at(t):
-            return math.radians(start) + rate * (t - t0)
-
-        while True:
-            th = tilt_at(sim.time + 0.5 * steps * sim.dt)  # gravity of the coming interval
-            sim.gravity[:] = (C.G * math.sin(th), 0.0, -C.G * math.cos(th))
-            if rigid:
-                for k in range(0, steps, sub):
-                    n_k = min(sub, steps - k)
-                    sim.run(steps=n_k)
-                    vc = rim.velocity(float(sim.wall_forces()["container"][0][0]), th)
-                    xc = motion.offset[0] + motion.velocity[0] * n_k * sim.dt
-                    motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
-            else:
-                sim.run(steps=steps)
-            each()
-            st = sim.state
-            m = st.masses
-            v = float((m * st.velocities[:, 0]).sum() / m.sum())
-            times.append(sim.time)
-            angles.append(math.degrees(tilt_at(sim.time)))
-            speeds.append(v)
-            if not block:
-                forces = sim.wall_forces()
-                fz = -float(forces["film"][0][2])
-                film_ratio.append(float(forces["film"][0][0]) / fz if fz > 0 else float("nan"))
-                push_ratio.append(float(forces["container"][0][0]) / weight)
-            if moved_at is None and _mean_x(sim) - x0 >= visible:
-                moved_at = angles[-1]
-            if follow:  # (a container: not a block, so `forces` is this sample's)
-                fx = float(forces["container"][0][0])
-                xc = motion.offset[0] + motion.velocity[0] * steps * sim.dt
-                vc = float(np.clip(v + v_ref * fx / weight, -0.5, 0.5))
-                motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
-            if sim.time - last[0] >= 0.5:
-                last[0] = sim.time
-                progress(f"tilt {angles[-1]:.2f} deg: mean slope velocity {v * 1e3:.2f} mm/s, "
-                         f"displacement {(_mean_x(sim) - x0) * 1e3:.2f} mm")
-            if v > v_detect:
-                break
-            if angles[-1] > max_angle or sim.time > t0 + max_time:
-                raise SimulationError(
-                    f"the material did not slide up to {angles[-1]:.1f} deg (incline.max_angle "
-                    f"{max_angle:g} deg, time.max_time {max_time:g} s); raise them.")
-        vtkw(sim, force=True)
+        tilt = _Tilt(sim, s, motion, container, start, rate, block, progress)
+        reporters = [tilt.rim] if tilt.rim is not None else []
+        watch.blowup.interval = tilt.interval
+        summary = sim.run(steps=1 << 62, reporters=[*reporters, *watch.reporters, tilt])
+        if summary.stopped != "sliding":
+            raise SimulationError(
+                f"the material did not slide up to {tilt.angles[-1]:.1f} deg (incline.max_angle "
+                f"{max_angle:g} deg, time.max_time {max_time:g} s); raise them.")
+        watch.last_frame()
+        times, angles, speeds = tilt.times, tilt.angles, tilt.speeds
+        film_ratio, push_ratio, moved_at = tilt.film_ratio, tilt.push_ratio, tilt.moved_at
+        v_detect = tilt.v_detect
         base = base_kinematics(sim.state) if not block else {}
         theta_c, theta_d = onset_angle(np.array(times), np.array(angles), np.array(speeds), v_detect)
         if not block:
@@ -303,11 +250,104 @@ class Incline(C.BenchExperiment):
             progress(f"warning: the material moved as soon as tilting began at {start:g} deg; "
                      "the angle is an upper bound -- lower incline.start_angle")
         spread = {"sliding_angle_deg": math.degrees(rate) * CHECK}
-        artifacts = {"vtk": vtkw.path} if vtkw.path else {}
+        artifacts = {"vtk": watch.path} if watch.path else {}
         if out_dir is not None:
             artifacts["incline_png"] = _plot(out_dir, times, angles, speeds, theta_c, v_detect)
         return dict(responses=responses, spread=spread, particles=n, steps=sim.step_count,
                     simulated_s=sim.time, artifacts=artifacts)
+
+
+class _Tilt(Reporter):
+    """The tilting phase as an engine reporter (:mod:`demcal.dem.reporters`): every
+    ``CHECK`` seconds it samples the bed's mean slope velocity and the forces, lets a
+    following container follow, ends the run when the bed slides (``StopRun("sliding")``)
+    or passes ``incline.max_angle`` / ``time.max_time`` (``StopRun("limit")``), and sets
+    gravity for the coming interval (its tilt at the interval's middle). A rigid container
+    is a second reporter, :class:`_Rim`, every ``RIGID_CHECK`` seconds within the interval.
+    """
+
+    def __init__(self, sim, s, motion, container, start, rate, block, progress):
+        self.sim, self.motion, self.block, self.progress = sim, motion, block, progress
+        super().__init__(max(1, int(round(CHECK / sim.dt))))
+        self._origin = sim.step_count  # (the rigid container's reporter counts from it)
+        self.start_deg, self.rate, self.t0 = start, rate, sim.time
+        self.weight = float(sim.state.masses.sum()) * C.G
+        self.follow = container is not None and s["incline.container"] == "follow"
+        rigid = container is not None and s["incline.container"] == "rigid"
+        self.v_ref = float(s["incline.container_yield"])
+        self.v_detect = float(s["incline.slide_speed"])
+        self.visible = float(s["incline.visible_mm"]) * 1e-3
+        self.max_angle, self.max_time = float(s["incline.max_angle"]), float(s["time.max_time"])
+        self.times, self.angles, self.speeds = [], [], []
+        self.film_ratio, self.push_ratio = [], []  # mobilised film friction; container push / weight
+        self.moved_at = None  # tilt [deg] when the material had moved `visible` down the slope
+        self.x0 = _mean_x(sim)
+        self._last = 0.0
+        self.rim = None
+        if rigid:
+            body = RigidContainer(float(s["incline.container_mass"]) * self.weight,
+                                  float(s["incline.container_friction"]), self.v_ref, self.weight)
+            self.rim = _Rim(self, body, max(1, int(round(RIGID_CHECK / sim.dt))))
+        self._set_gravity()
+
+    def tilt_at(self, t):
+        return math.radians(self.start_deg) + self.rate * (t - self.t0)
+
+    def _set_gravity(self):
+        self.theta = self.tilt_at(self.sim.time + 0.5 * self.interval * self.sim.dt)  # the coming interval's
+        self.sim.gravity[:] = (C.G * math.sin(self.theta), 0.0, -C.G * math.cos(self.theta))
+
+    def report(self, sim):
+        C.show(sim)
+        st = sim.state
+        m = st.masses
+        v = float((m * st.velocities[:, 0]).sum() / m.sum())
+        self.times.append(sim.time)
+        self.angles.append(math.degrees(self.tilt_at(sim.time)))
+        self.speeds.append(v)
+        if not self.block:
+            forces = sim.wall_forces()
+            fz = -float(forces["film"][0][2])
+            self.film_ratio.append(float(forces["film"][0][0]) / fz if fz > 0 else float("nan"))
+            self.push_ratio.append(float(forces["container"][0][0]) / self.weight)
+        if self.moved_at is None and _mean_x(sim) - self.x0 >= self.visible:
+            self.moved_at = self.angles[-1]
+        if self.follow:  # (a container: not a block, so `forces` is this sample's)
+            fx = float(forces["container"][0][0])
+            xc = self.motion.offset[0] + self.motion.velocity[0] * self.interval * sim.dt
+            vc = float(np.clip(v + self.v_ref * fx / self.weight, -0.5, 0.5))
+            self.motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
+        if sim.time - self._last >= 0.5:
+            self._last = sim.time
+            self.progress(f"tilt {self.angles[-1]:.2f} deg: mean slope velocity {v * 1e3:.2f} mm/s, "
+                          f"displacement {(_mean_x(sim) - self.x0) * 1e3:.2f} mm")
+        if v > self.v_detect:
+            raise StopRun("sliding")
+        if self.angles[-1] > self.max_angle or sim.time > self.t0 + self.max_time:
+            raise StopRun("limit")
+        self._set_gravity()
+
+
+class _Rim:
+    """A rigid container (:class:`RigidContainer`) moved by the forces on it, every
+    ``interval`` steps within each of the tilt's intervals (counted from its start)."""
+
+    def __init__(self, tilt, body, interval):
+        self.tilt, self.body, self.interval = tilt, body, interval
+
+    def next_report(self, sim) -> int:
+        into = (sim.step_count - self.tilt._origin) % self.tilt.interval  # steps into the tilt's interval
+        return min(self.interval - into % self.interval, self.tilt.interval - into)
+
+    def report(self, sim):
+        into = (sim.step_count - self.tilt._origin) % self.tilt.interval
+        n_k = self.interval if into % self.interval == 0 else into % self.interval
+        if into == 0:  # the end of a tilt interval: this piece was its last, maybe short
+            n_k = self.tilt.interval % self.interval or self.interval
+        motion = self.tilt.motion
+        vc = self.body.velocity(float(sim.wall_forces()["container"][0][0]), self.tilt.theta)
+        xc = motion.offset[0] + motion.velocity[0] * n_k * sim.dt
+        motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
 
 
 class RigidContainer:

@@ -118,7 +118,7 @@ def _check_plate(tpl, sizes, n, k, r_plate) -> float:
     return vol
 
 
-def _measure(sim, s, plate_radius, out_dir, vtkw, progress) -> dict:
+def _measure(sim, s, plate_radius, out_dir, watch, progress) -> dict:
     """Measure the heap at rest; write heap.png, heap.json and heap_spheres.npz to
     ``out_dir``; the run's result (responses, spread, counts, artifacts)."""
     from demcal.measure.heap import measure_heap
@@ -156,8 +156,8 @@ def _measure(sim, s, plate_radius, out_dir, vtkw, progress) -> dict:
         "heap_diameter_mm": m.diameter * 1e3,
         "particles_lost": float(sim.escaped),
     }
-    if vtkw.path:
-        artifacts["vtk"] = vtkw.path
+    if watch.path:
+        artifacts["vtk"] = watch.path
     return dict(responses=responses, spread={"repose_angle_deg": m.spread_deg},
                 particles=sim.n_particles + sim.escaped, steps=sim.step_count, simulated_s=sim.time,
                 artifacts=artifacts)
@@ -222,13 +222,11 @@ class ReposeFunnel(C.BenchExperiment):
         dt = C.time_step(s, mats, inter, walls, tpl, sizes.min_scale)
         sim = C.make_simulation(s, mats, inter, walls, dt, domain=domain, skin=C.skin_for(tpl))
         inserter = Inserter(region, n, tpl, sizes=sizes, rate=float(s["particles.rate"]), seed=seed)
-        bradius = np.zeros(0)
-        vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "repose_funnel")
+        watch = C.Watch(sim, "repose-funnel", 1, out_dir, vtk, walls, "repose_funnel")
         progress(f"repose-funnel: {n} particles, dt {dt:.3g} s, plate {2 * r_plate:.2f} m, "
                  f"outlet {2 * r_out * 1e3:.0f} mm at {h_out:.2f} m")
 
         def add():
-            nonlocal bradius
             if inserter.done:
                 return
             st = sim.state
@@ -239,18 +237,15 @@ class ReposeFunnel(C.BenchExperiment):
                                   velocities=ins.velocities, seed=seed)
 
         add()
-        settle = C.Settle(sim, float(s["time.rest_speed"]))
+        settle = C.rest(float(s["time.rest_speed"]))
         last_report = [0.0]
         held = [0]      # particles held on the funnel wall at the end, left out
 
         def each():
             add()
-            vtkw(sim)
-            C.check_finite(sim, "repose-funnel")
-            st = sim.state
             if sim.time - last_report[0] >= 0.25:
                 last_report[0] = sim.time
-                progress(f"t {sim.time:.2f} s: {st.n} particles in, {sim.escaped} off the plate, "
+                progress(f"t {sim.time:.2f} s: {sim.n_particles} particles in, {sim.escaped} off the plate, "
                          f"rms speed {C.rms_speed(sim):.3f} m/s")
 
         def stop():
@@ -271,10 +266,10 @@ class ReposeFunnel(C.BenchExperiment):
                 held[0] += in_funnel
                 sim.remove_particles(inside)
                 in_funnel = 0
-            return settle(in_funnel == 0)
+            return settle.at_rest(sim, in_funnel == 0)
 
-        done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each)
-        vtkw(sim, force=True)
+        done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each, watch.reporters)
+        watch.last_frame()
         if not done:
             st = sim.state
             in_funnel = int(np.sum(st.positions[:, 2] > h_out - 0.5 * b_max))
@@ -282,7 +277,7 @@ class ReposeFunnel(C.BenchExperiment):
                 f"the heap was not at rest after time.max_time = {s['time.max_time']:g} s "
                 f"({in_funnel} particles still in the funnel, rms speed {C.rms_speed(sim):.3g} m/s); "
                 "raise time.max_time.")
-        out = _measure(sim, s, r_plate, out_dir, vtkw, progress)
+        out = _measure(sim, s, r_plate, out_dir, watch, progress)
         out["responses"]["particles_held"] = float(held[0])
         out["particles"] += held[0]
         return out
@@ -345,16 +340,11 @@ class ReposeCylinder(C.BenchExperiment):
         region = CylinderRegion(centre=(0, 0, 0), radius=r_cyl * 0.99, height=fill_h)
         ins = insert(region, n, tpl, sizes=sizes, seed=seed)
         sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales, seed=seed)
-        vtkw = C.VtkWriter(out_dir, vtk, 0.05, walls, "repose_cylinder")
+        watch = C.Watch(sim, "repose-cylinder", 1, out_dir, vtk, walls, "repose_cylinder")
         progress(f"repose-cylinder: {n} particles, dt {dt:.3g} s, cylinder {2 * r_cyl * 1e3:.0f} mm")
         max_time = float(s["time.max_time"])
-
-        def each():
-            vtkw(sim)
-            C.check_finite(sim, "repose-cylinder")
-
-        settle = C.Settle(sim, float(s["time.rest_speed"]))
-        if not C.run_until(sim, 0.02, settle, max_time, each):
+        limit = float(s["time.rest_speed"])
+        if not C.run_until(sim, 0.02, C.rest(limit), max_time, reporters=watch.reporters):
             raise SimulationError(f"the filled cylinder did not settle within time.max_time = {max_time:g} s; "
                                   "raise time.max_time.")
         progress(f"settled at t {sim.time:.2f} s; lifting")
@@ -364,15 +354,14 @@ class ReposeCylinder(C.BenchExperiment):
         t_clear = sim.time + (top + b_max) / v
         # a steady lift, placed at every step by the engine's compiled loop
         walls.set_motion("cylinder", Translation(velocity=(0.0, 0.0, v), start=t_lift, stop=t_clear))
-        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, each)
+        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, reporters=watch.reporters)
         motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))  # then out of the way
         walls.set_motion("cylinder", motion)
-        settle = C.Settle(sim, float(s["time.rest_speed"]))
-        if not C.run_until(sim, 0.02, settle, max_time, each):
+        if not C.run_until(sim, 0.02, C.rest(limit), max_time, reporters=watch.reporters):
             raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "
                                   "raise time.max_time.")
-        vtkw(sim, force=True)
-        return _measure(sim, s, r_plate, out_dir, vtkw, progress)
+        watch.last_frame()
+        return _measure(sim, s, r_plate, out_dir, watch, progress)
 
 
 register(ReposeFunnel())

@@ -11,10 +11,32 @@ from __future__ import annotations
 
 import numpy as np
 
+from demcal.errors import ConfigError
+
 from . import neighbours as _nl
 from .contact.registry import H_FLAG, HIST_WIDTH
+from .contact.table import largest_reach
 from .forces import OUT_WIDTH, PAIR_OUT_WIDTH
 from .storage import ContactList, Store
+
+
+def skin(description, r_max: float | None) -> float:
+    """Neighbour skin [m] of a simulation whose largest sphere radius is ``r_max`` (None:
+    no spheres yet): the one given, or half the largest radius; at least twice the gap a
+    cohesive contact holds across (its declared reach), since a contact must stay in the
+    lists until it opens. ConfigError when a given skin does not exceed that gap."""
+    d = description
+    if r_max is None:
+        return 0.0 if d.skin is None else d.skin
+    reach = largest_reach(d.models[0], d.table, r_max)
+    if d.skin is not None:
+        if reach > 0.0 and d.skin <= reach:
+            raise ConfigError(
+                f"skin = {d.skin:.3g} m is not larger than the gap of {reach:.3g} m a "
+                f"{d.contact_model.normal} contact holds across; use skin > "
+                f"{reach:.3g} m or leave it unset.")
+        return d.skin
+    return max(0.5 * r_max, 2.0 * reach)
 
 
 class ListBuilder:

@@ -3,14 +3,20 @@
 ``Simulation.run`` asks every reporter ``next_report(sim)`` (steps until it next wants
 data), advances exactly that far, then calls ``report(sim)`` on the reporters that are
 due. Optional ``start(sim, total_steps)`` and ``finish(sim)`` bracket a run. Reporters
-read ``sim.state`` and may change the simulation (add particles, tilt gravity) or raise
-to stop it. Progress, energy, blow-up detection, VTK output and checkpoints are
-reporters, not code inside the physics. :class:`StatusLine` is the one-line display
-that progress reporters write to: rewritten in place on a terminal, plain lines in a log.
+read ``sim.snapshot()`` (one :class:`Snapshot` per step, shared by every reporter due
+then: the state and what is derived from it, computed once) or ``sim.state``, and may
+change the simulation (add particles, tilt gravity, move a wall). A reporter ends the
+run by raising :class:`StopRun` (the run returns normally, its summary saying why) or
+an error. Progress, energy, blow-up detection, the rest criterion, VTK output and
+checkpoints are reporters, not code inside the physics; the bench tests run their
+phases this way (:func:`demcal.bench.common.run_until`). :class:`StatusLine` is the
+one-line display that progress reporters write to: rewritten in place on a terminal,
+plain lines in a log.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import time as _time
@@ -18,6 +24,51 @@ import time as _time
 import numpy as np
 
 from demcal.errors import ConfigError, SimulationError
+
+
+class StopRun(Exception):
+    """Raised by a reporter's ``report`` to end the run after the step it reports on:
+    :meth:`~demcal.dem.Simulation.run` finishes the reporters and returns its summary
+    with ``stopped`` set to ``reason`` (an error ends a run with the error instead)."""
+
+    def __init__(self, reason: str = "stopped by a reporter"):
+        super().__init__(reason)
+        self.reason = reason
+
+
+class Snapshot:
+    """The simulation at one step, shared by the reporters due then (``sim.snapshot()``).
+
+    ``time``, ``step`` and ``state`` (:class:`~demcal.dem.storage.State`, user order,
+    live views) at once; ``kinetic_energy``, ``rms_speed`` and ``finite`` computed on
+    first use and kept, so that reporters due at the same step (a rest criterion, a
+    progress line, a blow-up check) compute them once. A reporter that changes the
+    particles (adds, removes) makes the next ``sim.snapshot()`` a new one.
+    """
+
+    def __init__(self, sim):
+        self._sim = sim
+        self.time, self.step = sim.time, sim.step_count
+        self.state = sim.state
+
+    @functools.cached_property
+    def kinetic_energy(self) -> float:
+        """Translational plus rotational kinetic energy [J] of the free particles."""
+        return self._sim.kinetic_energy()
+
+    @functools.cached_property
+    def rms_speed(self) -> float:
+        """sqrt(2 KE / M) of the free particles [m/s] (KE includes rotation): the rest
+        criterion of the bench tests."""
+        st = self.state
+        m = float(st.masses[~st.fixed].sum())
+        return math.sqrt(2.0 * self.kinetic_energy / m) if m > 0 else 0.0
+
+    @functools.cached_property
+    def finite(self) -> bool:
+        """Whether every position and velocity is a finite number."""
+        st = self.state
+        return bool(np.isfinite(st.positions).all() and np.isfinite(st.velocities).all())
 
 
 class Reporter:
@@ -79,24 +130,68 @@ class BlowUpDetector(Reporter):
 
     A run "blows up" when a position or velocity is not finite, or when a particle moves
     faster than ``max_speed`` [m/s] (default 100 m/s; far above any bench test), which
-    is the signature of a time step too large for the contact stiffness.
+    is the signature of a time step too large for the contact stiffness. ``what`` names
+    the simulation and ``fix`` the remedy in the message (a bench test names its own
+    setting).
     """
 
-    def __init__(self, interval=100, max_speed=100.0):
+    def __init__(self, interval=100, max_speed=100.0, what="simulation", fix="reduce dt (or dt_fraction)"):
         super().__init__(interval)
         self.max_speed = float(max_speed)
+        self.what, self.fix = what, fix
 
     def report(self, sim):
-        st = sim.state
-        if st.n == 0:
+        snap = sim.snapshot()
+        if snap.state.n == 0:
             return
-        finite = np.isfinite(st.positions).all() and np.isfinite(st.velocities).all()
-        vmax = float(np.sqrt((st.velocities ** 2).sum(axis=1)).max()) if finite else math.inf
-        if not finite or vmax > self.max_speed:
+        v = snap.state.velocities
+        vmax = float(np.sqrt((v ** 2).sum(axis=1)).max()) if snap.finite else math.inf
+        if not snap.finite or vmax > self.max_speed:
             raise SimulationError(
-                f"the simulation blew up at t = {sim.time:.6g} s (step {sim.step_count}, "
+                f"the {self.what} blew up at t = {sim.time:.6g} s (step {sim.step_count}, "
                 f"max speed {vmax:.3g} m/s): time step {sim.dt:.3g} s too large for these "
-                "stiffnesses; reduce dt (or dt_fraction).")
+                f"stiffnesses; {self.fix}.")
+
+
+class RestDetector(Reporter):
+    """End the run (:class:`StopRun`, reason ``"at rest"``) once the particles are at
+    rest: the snapshot's rms speed below ``limit`` [m/s] at ``checks`` reports in a row,
+    every ``interval`` steps. ``ready(sim)``, if given, is asked first: None means "not
+    yet" (the count is left as it is), False counts as a miss, True lets the speed
+    decide (the funnel: every particle out of the funnel). :attr:`hits` carries over
+    between runs until :meth:`reset`."""
+
+    def __init__(self, interval, limit, checks=2, ready=None):
+        super().__init__(interval)
+        self.limit, self.checks, self.ready = float(limit), int(checks), ready
+        self.hits = 0
+
+    def reset(self):
+        self.hits = 0
+
+    def at_rest(self, sim, extra_ok=True) -> bool:
+        """Count one check (``extra_ok`` and the speed below the limit) and say whether
+        ``checks`` in a row are reached."""
+        self.hits = self.hits + 1 if (extra_ok and sim.snapshot().rms_speed < self.limit) else 0
+        return self.hits >= self.checks
+
+    def report(self, sim):
+        ok = True if self.ready is None else self.ready(sim)
+        if ok is not None and self.at_rest(sim, ok):
+            raise StopRun("at rest")
+
+
+class TimeLimit(Reporter):
+    """End the run (:class:`StopRun`, reason ``"time limit"``) at the first report at or
+    after ``max_time`` [s] of simulated time, every ``interval`` steps."""
+
+    def __init__(self, interval, max_time):
+        super().__init__(interval)
+        self.max_time = float(max_time)
+
+    def report(self, sim):
+        if sim.time >= self.max_time:
+            raise StopRun("time limit")
 
 
 class _LogLines:

@@ -11,24 +11,24 @@ simulation is, checked once), :mod:`~demcal.dem.storage` (the arrays, by field),
 
 from __future__ import annotations
 
-import time as _time
-
 import numpy as np
 
 from demcal.errors import ConfigError
 
 from . import checkpoint as _checkpoint
 from . import checks as _checks
+from . import control as _control
 from . import forces as _forces
 from . import insertion as _insertion
 from . import stepping as _stepping
 from . import timestep as _ts
 from .backend import BACKENDS
-from .contact.table import largest_reach
 from .description import describe
 from .gravity import GravitySchedule, ScheduleClock
 from .lists import ListBuilder
+from .lists import skin as _lists_skin
 from .ordering import Ordering
+from .reporters import Snapshot
 from .storage import State, Store
 from .summary import RunSummary
 from .walltable import WallTable
@@ -127,6 +127,8 @@ class Simulation:
         self._wall_travel = 0.0
         self._needs_rebuild = True
         self._forces_valid = False
+        self._generation = 0  # bumped by every change of the particles (see snapshot)
+        self._snapshot = None
 
     # -- the description, as attributes ----------------------------------------------
     material_table = property(lambda self: self.description.material_table)
@@ -235,6 +237,7 @@ class Simulation:
         bodies, new = _insertion.rows(b, self.materials[mi].density, tid, spheres)
         self._store.append(bodies, new)
         self._ordering.added(new.n)
+        self._generation += 1
         self._needs_rebuild = True
         self._forces_valid = False
         # re-derive the automatic step (smaller particles may need a smaller one), or
@@ -257,6 +260,7 @@ class Simulation:
         skeep = np.repeat(keep, np.diff(self._store.bodies.start))
         old_sphere = self._store.keep(keep)
         self._ordering.kept(keep, skeep, old_sphere)
+        self._generation += 1
         self._needs_rebuild = True
         self._forces_valid = False
 
@@ -283,22 +287,10 @@ class Simulation:
 
     @property
     def skin(self) -> float:
-        """Neighbour skin [m]: the one given, or half the largest sphere radius; at least
-        twice the gap a cohesive contact holds across (its declared reach), since a
-        contact must stay in the lists until it opens."""
-        if self.n_spheres == 0:
-            return 0.0 if self.description.skin is None else self.description.skin
-        r_max = float(self._store.spheres.radius.max())
-        d = self.description
-        reach = largest_reach(d.models[0], d.table, r_max)
-        if d.skin is not None:
-            if reach > 0.0 and d.skin <= reach:
-                raise ConfigError(
-                    f"skin = {d.skin:.3g} m is not larger than the gap of {reach:.3g} m a "
-                    f"{d.contact_model.normal} contact holds across; use skin > "
-                    f"{reach:.3g} m or leave it unset.")
-            return d.skin
-        return max(0.5 * r_max, 2.0 * reach)
+        """Neighbour skin [m] (:func:`demcal.dem.lists.skin`): the one given, or half the
+        largest sphere radius; at least twice the gap a cohesive contact holds across."""
+        r_max = float(self._store.spheres.radius.max()) if self.n_spheres else None
+        return _lists_skin(self.description, r_max)
 
     # -- walls ------------------------------------------------------------------------
     def remove_wall(self, name: str) -> None:
@@ -319,58 +311,27 @@ class Simulation:
 
         Reporters (OpenMM style) are objects with ``next_report(sim) -> int`` (steps until
         they next want data, >= 1) and ``report(sim)``; see :mod:`demcal.dem.reporters`.
-        A reporter may add or remove particles, change gravity, or raise to stop.
+        A reporter may add or remove particles, change gravity, or end the run: raising
+        :class:`~demcal.dem.reporters.StopRun` ends it normally (the summary's
+        ``stopped`` says why), any other exception ends it with that error.
 
         A run by duration ends at the requested time to within half a step: when
         particles added during the run shrink the automatic time step, the steps left
         are counted again from the time left. A given ``dt`` never changes, so the run
         takes exactly ``round(duration / dt)`` steps (reporters' ``start`` get that
         count). With a :attr:`gravity_schedule`, gravity is set at every window of its
-        steps. Returns a :class:`RunSummary`.
+        steps. Returns a :class:`RunSummary` (:mod:`demcal.dem.control`).
         """
-        _checks.run_length(duration, steps)
-        _checks.finite_gravity(self._gravity)
-        dt = self.dt if self.n_spheres else self.description.dt
-        end = None   # the time a run by duration ends at [s]
-        if steps is None:
-            if dt is None:
-                raise ConfigError("add particles (or give dt) before running by duration.")
-            steps = int(round(duration / dt))
-            end = self.time + float(duration)
-        steps = int(steps)
-        reporters = list(reporters)
-        for r in reporters:
-            if hasattr(r, "start"):
-                r.start(self, steps)
-        done = particle_steps = 0
-        t_start, clock = self.time, _time.perf_counter()
-        try:
-            while done < steps:
-                want = [max(1, int(r.next_report(self))) for r in reporters]
-                nxt = self._clock.apply(self._gravity, self.time, self.step_count,
-                                        self.dt if self.n_spheres else None,
-                                        min([steps - done] + want))
-                _checks.finite_gravity(self._gravity)
-                particle_steps += self.n_particles * nxt
-                _stepping.advance(self, nxt)
-                done += nxt
-                for r, k in zip(reporters, want):
-                    if k == nxt:
-                        r.report(self)
-                if end is not None and done < steps and self._dt is None \
-                        and self.n_spheres and self.dt != dt:
-                    # particles were added: the automatic step shrank
-                    dt = self.dt
-                    steps = done + max(0, int(round((end - self.time) / dt)))
-        finally:
-            self._ordering.to_user(self._store)
-            for r in reporters:
-                if hasattr(r, "finish"):
-                    r.finish(self)
-        return RunSummary(steps=done, simulated_time=self.time - t_start,
-                          wall_time=_time.perf_counter() - clock,
-                          particles=self.n_particles, particle_steps=particle_steps,
-                          simulation=self)
+        return _control.run(self, duration, steps, reporters)
+
+    def snapshot(self):
+        """The simulation now, for reporters (:class:`~demcal.dem.reporters.Snapshot`):
+        one object per step and set of particles, shared by every caller until the
+        next step or the next change of the particles."""
+        key = (self.step_count, self._generation)
+        if self._snapshot is None or self._snapshot[0] != key:
+            self._snapshot = (key, Snapshot(self))
+        return self._snapshot[1]
 
     # -- observables ------------------------------------------------------------------
     @property
@@ -446,4 +407,5 @@ class Simulation:
         built with the same materials, walls, contact model and particle templates
         (templates are referred to by index)."""
         _checkpoint.restore_simulation(self, path)
+        self._generation += 1
         return self

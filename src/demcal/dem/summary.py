@@ -12,7 +12,8 @@ class RunSummary:
 
     ``steps`` taken, ``simulated_time`` [s] advanced, ``wall_time`` [s] it took,
     ``particles`` at its end and ``particle_steps`` (particles present times steps,
-    summed over the run's stretches between reporters). Before issue 18 ``run()``
+    summed over the run's stretches between reporters), and ``stopped``, the reason a
+    reporter gave for ending it early (None: it ran its length). Before issue 18 ``run()``
     returned the simulation itself: reading one of the simulation's attributes here
     still works, with a DeprecationWarning (use the simulation instead).
     """
@@ -23,6 +24,8 @@ class RunSummary:
     particles: int
     particle_steps: int
     simulation: object = field(repr=False, compare=False)
+    #: why a reporter ended the run early (:class:`~demcal.dem.reporters.StopRun`), or None
+    stopped: str | None = None
 
     @property
     def particle_steps_per_second(self) -> float:
