@@ -111,16 +111,18 @@ def test_the_funnel_bias_is_stored_as_a_slope_in_the_rolling_friction():
 
 
 @pytest.mark.slow
-def test_the_quick_incline_still_gives_the_stored_points():
-    """The stored quick -> paper bias holds while the quick profile gives what it gave
-    when the bias was measured: five seeds at each stored point, mean within 1 deg
-    (or two standard errors of the stored mean, if larger)."""
+@pytest.mark.parametrize("test, response", [("incline", "sliding_angle_deg"),
+                                            ("repose-funnel", "repose_angle_deg")])
+def test_the_quick_profile_still_gives_the_stored_points(test, response):
+    """A stored quick -> paper bias holds while the quick profile gives what it gave
+    when the bias was measured: at each stored point, the seeds it was measured with,
+    mean within 1 deg (or two standard errors of the stored mean, if larger)."""
     from demcal.bench.registry import get_experiment
 
-    bias = profiles.stored("incline", "sliding_angle_deg", "quick", "paper")
-    incline = get_experiment("incline")
+    bias = profiles.stored(test, response, "quick", "paper")
+    bench = get_experiment(test)
     for point in bias.points:
-        values = [incline.run(point["settings"], seed=s, profile="quick").responses["sliding_angle_deg"]
+        values = [bench.run(point["settings"], seed=s, profile="quick").responses[response]
                   for s in range(1, 1 + point["cheap_n"])]
         mean = sum(values) / len(values)
         tolerance = max(1.0, 2 * point["cheap_sd"] / point["cheap_n"] ** 0.5)
