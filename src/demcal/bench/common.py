@@ -278,11 +278,14 @@ def count_of(s: Mapping[str, Any]) -> int:
 
 def time_step(s: Mapping[str, Any], materials, interactions, walls, template, smallest_scale: float,
               fraction: float | None = None) -> float:
-    """The step [s]: ``time.step_fraction`` of the shortest contact duration of the
-    smallest particle (``template`` at ``smallest_scale``, material 0) with particles
-    and with ``walls``, and at most 0.2 Rayleigh times (:mod:`demcal.dem.timestep`).
+    """The step [s]: the engine's time-step policy (:func:`demcal.dem.timestep.choose_dt`)
+    with ``time.step_fraction`` of the shortest contact duration of the smallest
+    particle (``template`` at ``smallest_scale``, material 0) with particles and with
+    ``walls``, and at most 0.2 Rayleigh times; a hair below it, so that the engine's
+    check of a given step against its stable limit never fails by a rounding.
     """
     from demcal.dem import Simulation
+    from demcal.dem.timestep import choose_dt
 
     from demcal.geometry import Plane, WallSet
 
@@ -296,7 +299,7 @@ def time_step(s: Mapping[str, Any], materials, interactions, walls, template, sm
     probe.add_particles(template, [[0.0, 0.0, 0.0]], scales=[smallest_scale])
     t_r, t_c = probe.time_scales()
     f = float(s["time.step_fraction"] if fraction is None else fraction)
-    return min(f * t_c, 0.2 * t_r) * (1.0 - 1e-9)
+    return choose_dt(probe.description.models[0], t_r, t_c, 0.2, contact_fraction=f) * (1.0 - 1e-9)
 
 
 #: Neighbour-list skin in units of the template's smallest sphere radius (at scale 1).

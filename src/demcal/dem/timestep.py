@@ -43,11 +43,20 @@ def contact_times(normal_model, table, particle_pairs, wall_pairs, speed):
     return t
 
 
-def choose_dt(normal_model, t_rayleigh, t_contact, fraction):
-    """Automatic time step [s]."""
+def choose_dt(normal_model, t_rayleigh, t_contact, fraction, contact_fraction=None):
+    """The time-step policy [s]: ``min(fraction * T_R, contact_fraction * t_c)``, with
+    ``t_c / 10`` when ``contact_fraction`` is None (the engine's automatic step).
+
+    It is demcal's one policy: the engine's automatic step uses it with ``dt_fraction``
+    for the particles present, and the bench tests with ``fraction`` 0.2 and their
+    ``time.step_fraction`` for the smallest particle of their size distribution
+    (:func:`demcal.bench.common.time_step`), which they give the engine as ``dt``
+    because their particles arrive during the run."""
     if not 0.0 < fraction <= 1.0:
         raise ConfigError(f"dt_fraction must be in (0, 1], got {fraction}.")
-    return min(fraction * t_rayleigh, t_contact / 10.0)
+    if contact_fraction is None:
+        return min(fraction * t_rayleigh, t_contact / 10.0)
+    return min(fraction * t_rayleigh, contact_fraction * t_contact)
 
 
 def stable_limit(normal_model, t_rayleigh, t_contact):
