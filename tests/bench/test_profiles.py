@@ -63,7 +63,7 @@ def test_a_difference_that_follows_a_setting_is_stored_as_a_slope_in_it():
     # at the reference the sd is the intercept's se and the scatter combined
     assert b.at({})[1] == pytest.approx((b.se ** 2 + b.sd_resid ** 2) ** 0.5)
     assert sd > b.at({})[1]  # further from the points' centre, less sure
-    assert "-100.0° per unit of particle.rolling_friction" in b.describe()
+    assert "-10.0° per 0.1 of particle.rolling_friction" in b.describe()
 
 
 def test_a_slope_the_points_do_not_resolve_stays_a_constant():
@@ -128,3 +128,14 @@ def test_the_quick_profile_still_gives_the_stored_points(test, response):
         tolerance = max(1.0, 2 * point["cheap_sd"] / point["cheap_n"] ** 0.5)
         print(f"{point['settings']}: {mean:.2f} now, {point['cheap_mean']:.2f} stored")
         assert abs(mean - point["cheap_mean"]) < tolerance
+
+
+def test_settings_that_move_together_are_not_fitted_twice():
+    """mu = 0.8 - gamma at every point: once gamma is in, mu adds nothing (no singular fit)."""
+    rows = []
+    for i, (gamma, d) in enumerate([(0.1, 10.0), (0.2, 0.5), (0.3, -10.0), (0.15, 4.0), (0.25, -4.5), (0.12, 8.5)]):
+        pt = {"particle.rolling_friction": gamma, "particle.static_friction": 0.8 - gamma}
+        rows += [{"test": "repose-funnel", "profile": p, "seed": i, "set": pt,
+                  "responses": {"repose_angle_deg": v}} for p, v in (("quick", 30.0), ("paper", 30.0 + d))]
+    b = profiles.measure("repose-funnel", "repose_angle_deg", "quick", "paper", rows)
+    assert len(b.terms) == 1

@@ -114,3 +114,32 @@ def test_a_constant_stored_bias_gives_the_additive_bias_as_before():
     """With a constant prior the production runs' mean residual is the bias, bit for bit."""
     res = [(np.zeros(3), -5.0), (np.ones(3), -4.0), (np.full(3, 0.5), -4.3)]
     assert Discrepancy(res, _bias()).bias == Discrepancy(res).bias
+
+
+def test_a_constant_stored_bias_on_a_box_of_several_factors():
+    """prior_on_box with a constant bias: read at the box centre, no slope (the loop's
+    usual case for the incline: three factors, a constant bias)."""
+    from demcal.campaign.loop import Box, prior_on_box
+
+    campaign = load_campaign(SLIDING)
+    box0 = Box(0, tuple(f.low for f in campaign.factors), tuple(f.high for f in campaign.factors))
+    from types import SimpleNamespace
+
+    prior = prior_on_box(_bias(), campaign, SimpleNamespace(fixed={}), box0, "quick")
+    d = Discrepancy([], prior)
+    assert d.kind == "stored" and d.slope is None
+    assert d(np.zeros(3)) == pytest.approx((-2.0, 0.5)) and d.bias == -2.0
+
+
+def test_the_corrected_surfaces_observed_range_includes_the_stored_slope():
+    from demcal.campaign.loop import CorrectedSurface
+
+    class Flat:
+        factors, response = ("a", "b"), "y"
+        x, y = np.array([[-1.0, 0.0], [1.0, 0.0]]), np.array([30.0, 30.0])
+
+        def predict(self, x):
+            return 30.0
+
+    surface = CorrectedSurface(Flat(), Discrepancy([], _on_box(_linear_bias())))
+    assert surface.y == pytest.approx([30.0 - 2.0 + 10.0, 30.0 - 2.0 - 10.0])

@@ -85,3 +85,12 @@ def test_a_blow_up_names_the_simulation_and_the_fix():
     sim.state.velocities[0, 0] = 1000.0  # a particle flung out: faster than max_speed
     with pytest.raises(SimulationError, match="the heap simulation blew up .*; lower time.step_fraction"):
         sim.run(steps=10, reporters=[BlowUpDetector(1, what="heap simulation", fix="lower time.step_fraction")])
+
+
+def test_outside_a_run_a_snapshot_sees_values_written_in_place():
+    sim = _drop()
+    assert sim.snapshot().rms_speed == 0.0
+    sim.state.velocities[:] = 1.0
+    assert sim.snapshot().rms_speed > 0.5  # a new snapshot, not the cached one
+    sim.run(steps=3)
+    assert sim._snapshot is None  # nothing kept from the run's reporter passes

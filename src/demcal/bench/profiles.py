@@ -76,7 +76,8 @@ class ProfileBias:
         if not self.terms:
             return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° "
                     f"(sd over {len(self.points)} design points {self.sd_points:.2f}°; measured {self.measured})")
-        linear = ", ".join(f"{s:+.1f}° per unit of {t}" for t, s in zip(self.terms, self.slopes))
+        # material values are coefficients of order 0.1-1: a slope reads best per 0.1
+        linear = ", ".join(f"{s / 10:+.1f}° per 0.1 of {t}" for t, s in zip(self.terms, self.slopes))
         at = ", ".join(f"{t} = {self.reference[t]:g}" for t in self.terms)
         return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° at {at}, "
                 f"{linear} (scatter about it over {len(self.points)} design points {self.sd_resid:.2f}°; "
@@ -163,6 +164,8 @@ def _fit(settings: list[dict], diffs: list[float], terms: list[str]):
         return None
     reference = {t: statistics.fmean(float(s[t]) for s in settings) for t in terms}
     X = np.column_stack([np.ones(n)] + [[float(s[t]) - reference[t] for s in settings] for t in terms])
+    if np.linalg.matrix_rank(X) < k:
+        return None  # a term that moves with one already in: nothing new to fit
     y = np.asarray(diffs, float)
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     ss = float(((y - X @ coef) ** 2).sum())
@@ -173,7 +176,9 @@ def _fit(settings: list[dict], diffs: list[float], terms: list[str]):
 def _select_terms(settings: list[dict], diffs: list[float]) -> tuple[list[str], tuple | None]:
     """Forward selection: add the setting that explains most of the differences while its
     partial F-test gives p < 0.05 and two degrees of freedom remain. Only settings that
-    every point has and that vary between points are candidates."""
+    every point has and that vary between points are candidates. (Each step tests the
+    best of several candidates, so the chance of taking a term by luck is above 5 %:
+    a stored slope should be one the physics explains, as the funnel's is.)"""
     from scipy import stats
 
     names = set.intersection(*(set(s) for s in settings)) if settings else set()

@@ -202,7 +202,7 @@ class StoredPrior:
     ``to_settings``: then the bias is taken at its reference)."""
 
     def __init__(self, bias, to_settings: Callable[[np.ndarray], dict] | None = None, k: int = 0):
-        self.bias = bias
+        self.bias, self.k = bias, k
         self._to = to_settings if to_settings is not None else (lambda x0: {})
         self.offset = float(bias.at(self._to(np.zeros(k)))[0])
         self.slope = None
@@ -245,8 +245,7 @@ class Discrepancy:
             if prior is not None:  # a bias measured between the profiles (demcal.bench.profiles)
                 self.kind = "stored"
                 # its uncertainty at a new point: the model's se there and the points' scatter
-                self.bias, self.bias_se = prior.offset, prior(np.zeros(0 if self.slope is None
-                                                                       else len(self.slope)))[1]
+                self.bias, self.bias_se = prior.offset, prior(np.zeros(prior.k))[1]
             return
         x = np.array([p for p, _ in residuals], dtype=float)
         res = np.array([r for _, r in residuals], dtype=float)
@@ -320,8 +319,9 @@ class CorrectedSurface:
 
     @property
     def y(self) -> np.ndarray:
-        """The fitted runs' responses, shifted by the bias (the optimiser's default limits)."""
-        return self.model.y + self.discrepancy.bias
+        """The fitted runs' responses, shifted by the discrepancy's bias and stored slope at
+        their points (the optimiser's default limits)."""
+        return self.model.y + self.discrepancy.bias + self._line(np.atleast_2d(self.model.x))
 
     def _gp(self, pts: np.ndarray) -> np.ndarray:
         return self.discrepancy.gp.predict(pts * self._scale + self._shift)

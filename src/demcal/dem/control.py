@@ -51,9 +51,11 @@ def run(sim, duration=None, steps=None, reporters=()) -> RunSummary:
             particle_steps += sim.n_particles * nxt
             _stepping.advance(sim, nxt)
             done += nxt
+            sim._snapshot, sim._reporting = None, True  # one snapshot for this pass
             for r, k in zip(reporters, want):
                 if k == nxt:
                     r.report(sim)
+            sim._snapshot, sim._reporting = None, False
             if end is not None and done < steps and sim._dt is None \
                     and sim.n_spheres and sim.dt != dt:
                 # particles were added: the automatic step shrank
@@ -62,6 +64,7 @@ def run(sim, duration=None, steps=None, reporters=()) -> RunSummary:
     except StopRun as stop:
         stopped = stop.reason
     finally:
+        sim._snapshot, sim._reporting = None, False
         sim._ordering.to_user(sim._store)
         for r in reporters:
             if hasattr(r, "finish"):

@@ -43,7 +43,10 @@ class Snapshot:
     live views) at once; ``kinetic_energy``, ``rms_speed`` and ``finite`` computed on
     first use and kept, so that reporters due at the same step (a rest criterion, a
     progress line, a blow-up check) compute them once. A reporter that changes the
-    particles (adds, removes) makes the next ``sim.snapshot()`` a new one.
+    particles (adds, removes) makes the next ``sim.snapshot()`` a new one; one that
+    writes into the arrays in place (a velocity) is seen by ``state`` at once and by the
+    derived values from the next step's snapshot on. Outside a run every
+    ``sim.snapshot()`` is a new one.
     """
 
     def __init__(self, sim):

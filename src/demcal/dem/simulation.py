@@ -129,6 +129,7 @@ class Simulation:
         self._forces_valid = False
         self._generation = 0  # bumped by every change of the particles (see snapshot)
         self._snapshot = None
+        self._reporting = False  # inside a reporter pass of a run (see snapshot)
 
     # -- the description, as attributes ----------------------------------------------
     material_table = property(lambda self: self.description.material_table)
@@ -325,12 +326,16 @@ class Simulation:
         return _control.run(self, duration, steps, reporters)
 
     def snapshot(self):
-        """The simulation now, for reporters (:class:`~demcal.dem.reporters.Snapshot`):
-        one object per step and set of particles, shared by every caller until the
-        next step or the next change of the particles."""
+        """The simulation now (:class:`~demcal.dem.reporters.Snapshot`). Within one
+        reporter pass of a run it is one object, shared by the reporters due at that step
+        (a change of the particles makes a new one); outside a run every call makes a new
+        one, so values written into ``state`` in place are always seen."""
         key = (self.step_count, self._generation)
         if self._snapshot is None or self._snapshot[0] != key:
-            self._snapshot = (key, Snapshot(self))
+            snap = Snapshot(self)
+            if not self._reporting:
+                return snap
+            self._snapshot = (key, snap)
         return self._snapshot[1]
 
     # -- observables ------------------------------------------------------------------
