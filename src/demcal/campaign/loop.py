@@ -321,7 +321,8 @@ class CorrectedSurface:
     def y(self) -> np.ndarray:
         """The fitted runs' responses, shifted by the discrepancy's bias and stored slope at
         their points (the optimiser's default limits)."""
-        return self.model.y + self.discrepancy.bias + self._line(np.atleast_2d(self.model.x))
+        y = self.model.y + self.discrepancy.bias
+        return y if self.discrepancy.slope is None else y + self._line(np.atleast_2d(self.model.x))
 
     def _gp(self, pts: np.ndarray) -> np.ndarray:
         return self.discrepancy.gp.predict(pts * self._scale + self._shift)
