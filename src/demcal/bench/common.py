@@ -68,7 +68,7 @@ import numpy as np
 from demcal.bench.registry import RunResult, Setting, resolve_settings
 from demcal.dem.contact.registry import preset_names, rolling_names
 from demcal.dem.contact.table import coefficient_names, declared_coefficient
-from demcal.dem.reporters import Reporter, StopRun
+from demcal.dem.reporters import Reporter, StopRun, TimeLimit
 from demcal.errors import ConfigError
 from demcal.geometry.motion import Motion
 
@@ -528,13 +528,13 @@ def rms_speed(sim) -> float:
     return sim.snapshot().rms_speed
 
 
-def rest(limit: float, ready=None):
+def rest(limit: float):
     """The kinetic-energy rest criterion, :func:`rms_speed` below ``limit`` [m/s] at two
     checks in a row: the engine's :class:`~demcal.dem.reporters.RestDetector` (its
     interval is set by :func:`run_until`)."""
     from demcal.dem.reporters import RestDetector
 
-    return RestDetector(1, limit, checks=2, ready=ready)
+    return RestDetector(1, limit, checks=2)
 
 
 class BenchExperiment:
@@ -601,12 +601,11 @@ def show(sim) -> None:
 
 class _Phase(Reporter):
     """One phase of a bench test as an engine reporter: every ``interval`` steps the
-    progress display and ``each()``, then the phase's end (``stop()`` true: "done") and
-    its time limit."""
+    progress display (``progress``) and ``each()``, then ``stop()`` (true: "done")."""
 
-    def __init__(self, interval, each, stop, max_time, progress: bool):
+    def __init__(self, interval, each=None, stop=None, progress: bool = False):
         super().__init__(interval)
-        self.each, self.stop, self.max_time, self.progress = each, stop, max_time, progress
+        self.each, self.stop, self.progress = each, stop, progress
 
     def report(self, sim):
         if self.progress:
@@ -615,20 +614,18 @@ class _Phase(Reporter):
             self.each()
         if self.stop is not None and self.stop():
             raise StopRun("done")
-        if sim.time >= self.max_time:
-            raise StopRun("time limit")
 
 
 def run_until(sim, chunk: float, stop, max_time: float, each: Callable[[], None] | None = None,
-              reporters=()) -> bool:
+              watch: Watch | None = None) -> bool:
     """Run one phase of a test on the engine's run control until ``stop`` or
     ``sim.time >= max_time``, looking every ``chunk`` [s].
 
     ``stop`` is a callable (true: the phase is over) or an engine reporter that ends the
     run with :class:`~demcal.dem.reporters.StopRun` (a :func:`rest` criterion); it is
-    asked every ``chunk``, after ``each()`` (insertion, controllers) and ``reporters``
-    (a :class:`Watch`'s). Returns whether the phase ended by ``stop``. The test's progress
-    shows ``max_time`` as the limit.
+    asked every ``chunk``, after ``each()`` (insertion, controllers) and the ``watch``'s
+    reporters (its blow-up check at the phase's pace). Returns whether the phase ended by
+    ``stop``. The test's progress shows ``max_time`` as the limit.
     """
     steps = max(1, int(round(chunk / sim.dt)))
     if sim.time >= max_time:
@@ -638,13 +635,13 @@ def run_until(sim, chunk: float, stop, max_time: float, each: Callable[[], None]
         stop.interval = steps
         end = stop
     else:
-        end = _Phase(steps, None, stop, math.inf, False)
-    for r in reporters:
-        if hasattr(r, "max_speed"):  # a Watch's blow-up check, at the phase's pace
-            r.interval = steps
+        end = _Phase(steps, stop=stop)
+    watching = []
+    if watch is not None:
+        watch.blowup.interval = steps
+        watching = watch.reporters
     # all due every `steps`, in this order: progress and each(), the watch, the end, the limit
-    ordered = [_Phase(steps, each, None, math.inf, True), *reporters, end,
-               _Phase(steps, None, None, max_time, False)]
+    ordered = [_Phase(steps, each=each, progress=True), *watching, end, TimeLimit(steps, max_time)]
     with progress.time_limit(max_time) if progress is not None else contextlib.nullcontext():
         summary = sim.run(steps=1 << 62, reporters=ordered)
     return summary.stopped in ("done", "at rest")

@@ -207,7 +207,7 @@ class Incline(C.BenchExperiment):
             sim.run(duration=settle_time)
         else:
             rest = C.rest(float(s["time.rest_speed"]))
-            if not C.run_until(sim, 0.02, rest, max_time, reporters=watch.reporters):
+            if not C.run_until(sim, 0.02, rest, max_time, watch=watch):
                 raise SimulationError(f"the bed did not settle within time.max_time = {max_time:g} s; "
                                       "raise time.max_time.")
             if s["incline.container"] == "remove":

@@ -67,17 +67,33 @@ class ProfileBias:
         A term missing from ``settings`` is taken at the reference."""
         if not self.terms:
             return self.bias, math.hypot(self.se, self.sd_points)
-        x = [1.0] + [float(settings.get(t, self.reference[t])) - self.reference[t] for t in self.terms]
+        x = self._offsets(settings)
         mean = self.bias + sum(s * xi for s, xi in zip(self.slopes, x[1:]))
+        return mean, math.hypot(self.se_at(settings), self.sd_resid)
+
+    def se_at(self, settings: Mapping[str, float]) -> float:
+        """The standard error of the bias model itself at ``settings`` (without the
+        points' scatter about it; a constant: ``se``)."""
+        if not self.terms:
+            return self.se
+        x = self._offsets(settings)
         var = sum(x[i] * self.covariance[i][j] * x[j] for i in range(len(x)) for j in range(len(x)))
-        return mean, math.sqrt(max(var, 0.0) + self.sd_resid ** 2)
+        return math.sqrt(max(var, 0.0))
+
+    def _offsets(self, settings) -> list[float]:
+        """(1, term - reference, ...) at ``settings``; a missing term at its reference."""
+        return [1.0] + [float(settings.get(t, self.reference[t])) - self.reference[t] for t in self.terms]
+
+    def slope_text(self) -> str:
+        """The slopes in words, per 0.1 of each term (material values are coefficients of
+        order 0.1-1, so a slope reads best per 0.1); empty for a constant."""
+        return ", ".join(f"{s / 10:+.1f}° per 0.1 of {t}" for t, s in zip(self.terms, self.slopes))
 
     def describe(self) -> str:
         if not self.terms:
             return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° "
                     f"(sd over {len(self.points)} design points {self.sd_points:.2f}°; measured {self.measured})")
-        # material values are coefficients of order 0.1-1: a slope reads best per 0.1
-        linear = ", ".join(f"{s / 10:+.1f}° per 0.1 of {t}" for t, s in zip(self.terms, self.slopes))
+        linear = self.slope_text()
         at = ", ".join(f"{t} = {self.reference[t]:g}" for t in self.terms)
         return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° at {at}, "
                 f"{linear} (scatter about it over {len(self.points)} design points {self.sd_resid:.2f}°; "

@@ -268,7 +268,7 @@ class ReposeFunnel(C.BenchExperiment):
                 in_funnel = 0
             return settle.at_rest(sim, in_funnel == 0)
 
-        done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each, watch.reporters)
+        done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each, watch)
         watch.last_frame()
         if not done:
             st = sim.state
@@ -344,7 +344,7 @@ class ReposeCylinder(C.BenchExperiment):
         progress(f"repose-cylinder: {n} particles, dt {dt:.3g} s, cylinder {2 * r_cyl * 1e3:.0f} mm")
         max_time = float(s["time.max_time"])
         limit = float(s["time.rest_speed"])
-        if not C.run_until(sim, 0.02, C.rest(limit), max_time, reporters=watch.reporters):
+        if not C.run_until(sim, 0.02, C.rest(limit), max_time, watch=watch):
             raise SimulationError(f"the filled cylinder did not settle within time.max_time = {max_time:g} s; "
                                   "raise time.max_time.")
         progress(f"settled at t {sim.time:.2f} s; lifting")
@@ -354,10 +354,10 @@ class ReposeCylinder(C.BenchExperiment):
         t_clear = sim.time + (top + b_max) / v
         # a steady lift, placed at every step by the engine's compiled loop
         walls.set_motion("cylinder", Translation(velocity=(0.0, 0.0, v), start=t_lift, stop=t_clear))
-        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, reporters=watch.reporters)
+        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, watch=watch)
         motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))  # then out of the way
         walls.set_motion("cylinder", motion)
-        if not C.run_until(sim, 0.02, C.rest(limit), max_time, reporters=watch.reporters):
+        if not C.run_until(sim, 0.02, C.rest(limit), max_time, watch=watch):
             raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "
                                   "raise time.max_time.")
         watch.last_frame()

@@ -276,13 +276,13 @@ class Discrepancy:
 
     def linear(self, pts0) -> np.ndarray | float:
         """The stored slope's part at box-0 coded points (0 without one)."""
-        return 0.0 if self.slope is None else np.atleast_2d(pts0) @ self.slope
+        return 0.0 if self.prior is None else self.prior.linear(pts0)
 
     def __call__(self, coded0) -> tuple[float, float]:
         """Mean and standard deviation of the discrepancy at one point (box-0 coded)."""
-        line = float(np.ravel(self.linear(coded0))[0]) if self.slope is not None else 0.0
         if self.kind == "stored":
             return self.prior(coded0)
+        line = float(np.ravel(self.linear(coded0))[0]) if self.slope is not None else 0.0
         if self.gp is None:
             return self.bias + line, self.bias_se
         mean, sd = self.gp.predict(np.atleast_2d(coded0), return_std=True)

@@ -161,15 +161,13 @@ class RestDetector(Reporter):
     rest: the snapshot's rms speed below ``limit`` [m/s] at ``checks`` reports in a row,
     every ``interval`` steps. ``ready(sim)``, if given, is asked first: None means "not
     yet" (the count is left as it is), False counts as a miss, True lets the speed
-    decide (the funnel: every particle out of the funnel). :attr:`hits` carries over
-    between runs until :meth:`reset`."""
+    decide (e.g. "no particle still in the hopper"). A test with more to check than that
+    calls :meth:`at_rest` from its own reporter instead (the funnel). :attr:`hits`
+    carries over between runs; a new phase takes a new detector."""
 
     def __init__(self, interval, limit, checks=2, ready=None):
         super().__init__(interval)
         self.limit, self.checks, self.ready = float(limit), int(checks), ready
-        self.hits = 0
-
-    def reset(self):
         self.hits = 0
 
     def at_rest(self, sim, extra_ok=True) -> bool:

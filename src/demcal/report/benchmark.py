@@ -115,26 +115,17 @@ def _with_stored_bias(campaign: Campaign, response: str, c: Comparison) -> Compa
     points = c.points.copy()
     # a bias linear in a material value (the funnel's, in the rolling friction) is read at
     # each point's settings; its se there is the model's, not the points' scatter about it
-    at = [bias.at({**campaign.settings,
-                   **{f.parameter: float(f.to_actual(row[f.name])) for f in campaign.factors}})
-          for _, row in points.iterrows()]
-    shift = np.array([m for m, _ in at])
-    se = np.array([_model_se(bias, sd) for _, sd in at])
+    settings = [{**campaign.settings, **{f.parameter: float(f.to_actual(row[f.name])) for f in campaign.factors}}
+                for _, row in points.iterrows()]
+    shift = np.array([bias.at(x)[0] for x in settings])
+    se = np.array([bias.se_at(x) for x in settings])
     points["demcal"] = points["demcal"] + shift
     seed_sd = points["sd"].fillna(c.pooled_sd).fillna(0.0)  # no replicates anywhere: the bias's se alone
     points["sd"] = np.sqrt(seed_sd ** 2 + se ** 2)
-    # material values are coefficients of order 0.1-1: a slope reads best per 0.1
     label = ", ".join([f"{bias.bias:+.2f}°" + (" at the centre" if bias.terms else "")]
-                      + [f"{s / 10:+.1f}° per 0.1 of {t}" for t, s in zip(bias.terms, bias.slopes)])
+                      + ([bias.slope_text()] if bias.terms else []))
     return _comparison(f"{c.profile} + stored bias to paper ({label})", points,
                        float(np.hypot(c.pooled_sd, float(se.mean()))))
-
-
-def _model_se(bias, sd_at: float) -> float:
-    """The stored bias's own standard error at a point: ``at()``'s sd less the scatter of the
-    points about the model (a constant: its se, as before)."""
-    scatter = bias.sd_points if not bias.terms else bias.sd_resid
-    return float(np.sqrt(max(sd_at ** 2 - scatter ** 2, 0.0))) if bias.terms else bias.se
 
 
 def figure(comparisons: list[Comparison], response: str, label: str):
