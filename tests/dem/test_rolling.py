@@ -113,6 +113,7 @@ def test_rolling_torque_between_counter_rotating_spheres(backend, rolling_model)
     ts, ws = [], []
     for _ in range(12):
         sim.run(duration=0.0025)
+        st = sim.state
         ts.append(sim.time)
         ws.append(st.omegas[:, 1].copy())
         # torque opposes each body's spin: -sign * torque on both
@@ -218,8 +219,8 @@ def test_type_a_limited_rolls_as_type_a_and_comes_to_rest(backend):
         for _ in range(20):
             sim.run(duration=0.01)
             ts.append(sim.time - t_start)
-            vs.append(st.velocities[0, 0])
-            ws.append(st.omegas[0, 1])
+            vs.append(sim.state.velocities[0, 0])
+            ws.append(sim.state.omegas[0, 1])
         runs[model] = np.array(ts), np.array(vs), np.array(ws)
     ts, va, _ = runs["type_a"]
     _, vl, wl = runs["type_a_limited"]

@@ -1,12 +1,12 @@
 """The engine's spatial sort (particles reordered in memory by cell, as LIGGGHTS'
-``atom_modify sort``) is invisible to users: particles keep their indices, views stay
-live, contacts keep their history, and results do not depend on how a run is split,
+``atom_modify sort``) is invisible to users: particles keep their indices, reading the
+state never reorders the engine, what is written into it reaches the right particle,
+contacts keep their history, and results do not depend on how a run is split,
 on the thread count, or on a checkpoint restart."""
 
 import numpy as np
 import pytest
 
-from demcal.dem import Simulation
 from demcal.dem.reporters import EnergyReporter
 from demcal.particles.templates import two_sphere_paper
 
@@ -21,10 +21,11 @@ def _sorting(sim, interval=40):
     return sim
 
 
-def test_particles_keep_their_index_and_views_stay_live(backend):
+def test_particles_keep_their_index_and_reading_never_reorders(backend):
     width, read_every = 0.03, 10
     sim = _sorting(pour(backend, 300, width))
     st = sim.state
+    first = st.positions.copy()
     scales = st.scales.copy()
     # while the particles mostly fall freely (11 contacts by 0.05 s) the sorted run stays
     # with an unsorted one to rounding (measured: 4e-13 m), particle by particle
@@ -35,25 +36,65 @@ def test_particles_keep_their_index_and_views_stay_live(backend):
     plain.run(duration=0.05)
     assert plain.sorts == 0
     assert np.abs(sim.state.positions - plain.state.positions).max() < 1e-9
+    # the state read before the run is a record of its step, and read-only from then on
+    assert st.step == 0 and np.array_equal(st.positions, first)
+    with pytest.raises(ValueError):
+        st.velocities[0] = 0.0
     # then they pile up and the two runs part (chaos; 8 mm by 0.25 s): each particle
-    # must still move continuously between reads of the live view. No particle is
+    # must still move continuously between reads of the state. No particle is
     # faster than a fall from the top of the box, sqrt(2 g 4 width) = 1.5 m/s, i.e.
     # 0.25 mm between reads; two touching spheres are >= 3 mm apart, so a particle
     # read at another's place jumps far more than the bound (twice that move).
     sorts = sim.sorts
     trace = Trace(lambda s: s.state.positions.copy(), read_every)
-    prev = st.positions.copy()
+    prev = sim.state.positions.copy()
     sim.run(duration=0.2, reporters=[trace])
     assert sim.sorts >= sorts + 10 and len(trace.rows) > 1000
-    track = np.array([prev] + trace.rows + [st.positions])
+    now = sim.state
+    assert now is sim.state                      # one object until the next step
+    track = np.array([prev] + trace.rows + [now.positions])
     step = np.linalg.norm(np.diff(track, axis=0), axis=2).max()
     assert step < 2.0 * np.sqrt(2 * 9.81 * 4 * width) * read_every * sim.dt
-    assert st.positions is sim.state.positions   # same arrays, updated in place
-    assert np.array_equal(st.scales, scales)     # particle k is still particle k
+    assert np.array_equal(now.scales, scales)    # particle k is still particle k
     i, j, _ = sim.contacts()
-    gap = (np.linalg.norm(st.sphere_positions[i] - st.sphere_positions[j], axis=1)
-           - st.radii[i] - st.radii[j])
+    gap = (np.linalg.norm(now.sphere_positions[i] - now.sphere_positions[j], axis=1)
+           - now.radii[i] - now.radii[j])
     assert len(i) > 300 and np.all(gap < 0)      # user indices of touching spheres
+
+
+def test_reading_the_state_costs_no_reordering(backend, monkeypatch):
+    # Issue 18: 20 x (run(50) + state) used to put the arrays in user order and back
+    # each time (41 permutations on 5,202 spheres). Reading now gathers copies: the
+    # only reorderings are the engine's own sorts. (A roundtrip leaves no trace in the
+    # public API, so this counts the storage's permutations.)
+    from demcal.dem.storage import Store
+
+    sim = _sorting(pour(backend, 300, 0.03), interval=200)
+    sim.run(steps=100)
+    calls = []
+    permute = Store.permute
+    monkeypatch.setattr(Store, "permute", lambda self, order: calls.append(1) or permute(self, order))
+    sorts = sim.sorts
+    for _ in range(20):
+        sim.run(steps=50)
+        sim.state.positions.sum()
+    assert sim.sorts > sorts and len(calls) == sim.sorts - sorts
+
+
+def test_what_is_written_into_the_state_moves_that_particle(backend):
+    # in a sorted system, a velocity written at user index k moves particle k
+    sim = _sorting(pour(backend, 300, 0.03))
+    sim.run(duration=0.05)
+    assert not np.array_equal(sim.engine_order, np.arange(300))
+    k = int(np.argmax(sim.state.positions[:, 2]))   # the highest one: free in the air
+    before = sim.state.positions[k].copy()
+    sim.state.velocities[k] = (0.5, 0.0, 0.0)
+    sim.state.omegas[k] = 0.0
+    assert sim.state.velocities[k, 0] == 0.5         # the same object until the run
+    sim.run(steps=1)
+    assert sim.state.positions[k, 0] - before[0] == pytest.approx(0.5 * sim.dt, rel=1e-6)
+    with pytest.raises(ValueError):
+        sim.state.masses[k] = 1.0                    # set by add_particles only
 
 
 def test_results_do_not_depend_on_how_a_run_is_split(backend):

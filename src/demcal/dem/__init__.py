@@ -23,8 +23,10 @@ impact_speed=2.0, skin=None, domain=None, threads=None)``
   a run by ``duration`` ends at that time even when particles added during the run
   shrink the automatic step. A given ``dt`` is checked against the stable limit again
   after every ``add_particles``.
-* ``sim.state``: live arrays ``positions, velocities, omegas, quaternions, forces,
-  torques, masses, inertias, radii, sphere_positions, sphere_body, ...`` (SI units)
+* ``sim.state``: the particles in user order (copies, SI units): ``positions,
+  velocities, omegas, quaternions, forces, torques, masses, inertias, radii,
+  sphere_positions, sphere_body, ...``; write positions, velocities, spins and
+  ``fixed`` into it before a run to start the run from them
 * ``sim.kinetic_energy()`` [J], ``sim.wall_forces()`` -> ``{group: (force, torque)}``,
   ``sim.contacts()``, ``sim.time`` [s], ``sim.step_count``, ``sim.dt`` [s],
   ``sim.gravity`` (writable, e.g. to tilt a plane exactly), ``sim.gravity_schedule``

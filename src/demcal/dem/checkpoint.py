@@ -1,11 +1,13 @@
 """Checkpoints: a simulation's whole run state in one ``.npz`` file, by field name.
 
-Format 4 (this one) stores each container's arrays under ``<container>.<field>``
+Format 5 (this one) stores each container's arrays under ``<container>.<field>``
 (``bodies.pos``, ``spheres.radius``, ``pairs.hist``, ``walls.other``, ...; the fields of
-:mod:`demcal.dem.storage`), the ordering's arrays, gravity, the sub-model ids and the
-scalars under their own names, with ``version``. Formats 1-3 (``b_pos``, ``p_nbr``, ...,
-a ``scalars`` row) are read too; a restart from format 1 re-evaluates the forces (not
-bit-identical), 2-4 restart bit-identically.
+:mod:`demcal.dem.storage`) in the engine's order, the ordering's arrays (with
+``user_view``), gravity, the sub-model ids and the scalars under their own names, with
+``version``. Format 4 is the same with the arrays in user order (read as such: no
+``user_view``); formats 1-3 (``b_pos``, ``p_nbr``, ..., a ``scalars`` row) are read too.
+A restart from format 1 re-evaluates the forces (not bit-identical), 2-5 restart
+bit-identically.
 """
 
 from __future__ import annotations
@@ -19,12 +21,12 @@ from demcal.errors import ConfigError
 from .forces import ACC_WIDTH, OUT_WIDTH
 from .storage import Bodies, ContactList, Spheres, Store
 
-VERSION = 4
+VERSION = 5
 _CONTAINERS = (("bodies", Bodies), ("spheres", Spheres), ("pairs", ContactList),
                ("walls", ContactList))
 _SCALARS = ("time", "step", "dt", "wall_travel", "escaped", "forces_valid",
             "needs_rebuild", "last_sort")
-_ORDERING = ("perm_b", "perm_s", "carry_engine", "old_of_new")
+_ORDERING = ("perm_b", "perm_s", "carry_engine", "old_of_new", "user_view")
 # formats 1-3: container prefixes, renamed fields, and the scalars row's layout
 _OLD_PREFIX = {"b_": "bodies", "s_": "spheres", "p_": "pairs", "q_": "walls"}
 _OLD_FIELD = {"nbr": "other", "wid": "other"}
@@ -108,8 +110,9 @@ def load(path, models):
 
 
 def save_simulation(sim, path) -> None:
-    """:meth:`Simulation.save_checkpoint`: the arrays in user order."""
-    sim._ordering.to_user(sim._store)
+    """:meth:`Simulation.save_checkpoint`: the arrays in the engine's order, with the
+    ordering (what was written into ``sim.state`` included)."""
+    sim._view.close(sim._store, keep=True)
     o = sim._ordering
     scalars = dict(time=sim.time, step=sim.step_count, dt=sim.dt,
                    wall_travel=sim._wall_travel, escaped=sim.escaped,

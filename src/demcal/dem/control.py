@@ -6,8 +6,8 @@ steps until it next wants data, lets a gravity schedule cut the stretch to its w
 (:mod:`demcal.dem.stepping`), and reports to the reporters that are due, in the order
 given; one of them may end the run with :class:`~demcal.dem.reporters.StopRun`. A run
 by duration whose automatic step shrinks (particles added by a reporter) counts its
-remaining steps again. However it ends, the arrays go back to the user's order and the
-reporters' ``finish`` are called.
+remaining steps again. However it ends, the reporters' ``finish`` are called; the
+engine's arrays keep their order (users read them through ``sim.state``).
 """
 
 from __future__ import annotations
@@ -65,7 +65,6 @@ def run(sim, duration=None, steps=None, reporters=()) -> RunSummary:
         stopped = stop.reason
     finally:
         sim._snapshot, sim._reporting = None, False
-        sim._ordering.to_user(sim._store)
         for r in reporters:
             if hasattr(r, "finish"):
                 r.finish(sim)

@@ -39,8 +39,8 @@ class StopRun(Exception):
 class Snapshot:
     """The simulation at one step, shared by the reporters due then (``sim.snapshot()``).
 
-    ``time``, ``step`` and ``state`` (:class:`~demcal.dem.storage.State`, user order,
-    live views) at once; ``kinetic_energy``, ``rms_speed`` and ``finite`` computed on
+    ``time``, ``step`` and ``state`` (:class:`~demcal.dem.storage.State`, user order)
+    at once; ``kinetic_energy``, ``rms_speed`` and ``finite`` computed on
     first use and kept, so that reporters due at the same step (a rest criterion, a
     progress line, a blow-up check) compute them once. A reporter that changes the
     particles (adds, removes) makes the next ``sim.snapshot()`` a new one; one that

@@ -18,7 +18,6 @@ from demcal.errors import ConfigError
 from . import checkpoint as _checkpoint
 from . import checks as _checks
 from . import control as _control
-from . import forces as _forces
 from . import insertion as _insertion
 from . import stepping as _stepping
 from . import timestep as _ts
@@ -27,7 +26,7 @@ from .description import describe
 from .gravity import GravitySchedule, ScheduleClock
 from .lists import ListBuilder
 from .lists import skin as _lists_skin
-from .ordering import Ordering
+from .ordering import Ordering, UserView
 from .reporters import Snapshot
 from .storage import State, Store
 from .summary import RunSummary
@@ -130,6 +129,7 @@ class Simulation:
         self._generation = 0  # bumped by every change of the particles (see snapshot)
         self._snapshot = None
         self._reporting = False  # inside a reporter pass of a run (see snapshot)
+        self._view = UserView(self._ordering)   # the State handed out by `state`
 
     # -- the description, as attributes ----------------------------------------------
     material_table = property(lambda self: self.description.material_table)
@@ -224,6 +224,7 @@ class Simulation:
                              angular_velocities, fixed, seed, radii, rotation)
         _insertion.check_domain(b, self.domain)
         _insertion.check_boxes(self.walls, self.wall_names, self.time, b.pos, b.diameters)
+        self._view.close(self._store)
         self._ordering.release(self._store)
         nb0 = self.n_particles
         spheres = _insertion.sphere_rows(b, nb0)
@@ -252,6 +253,7 @@ class Simulation:
         keep = _checks.kept_particles(which, self.n_particles)
         if keep is None:
             return
+        self._view.close(self._store)
         self._ordering.release(self._store)
         if not keep.all():
             self._keep(keep)
@@ -341,41 +343,30 @@ class Simulation:
     # -- observables ------------------------------------------------------------------
     @property
     def state(self) -> State:
-        """Live views of the arrays in user order (see :class:`State`)."""
-        self._ordering.to_user(self._store)
-        return State.of(self._store, self.time, self.step_count)
+        """The particles now, in user order (:class:`State`): copies, one object until
+        the next step or change of the particles; what is written into its writable
+        fields is where the next run starts from."""
+        return self._view.state(self._store, self.time, self.step_count,
+                                (self.step_count, self._generation))
 
     def kinetic_energy(self) -> float:
         """Translational plus rotational kinetic energy [J] of the free particles."""
-        b = self._store.bodies
-        free = ~b.fixed
-        et = 0.5 * np.sum(b.mass[free] * np.sum(b.vel[free] ** 2, axis=1))
-        er = 0.5 * np.sum(b.omega[free] * b.angmom[free])
+        st = self.state   # summed in user order, whatever the engine's order
+        free = ~st.fixed
+        et = 0.5 * np.sum(st.masses[free] * np.sum(st.velocities[free] ** 2, axis=1))
+        er = 0.5 * np.sum(st.omegas[free] * st.angular_momenta[free])
         return float(et + er)
 
     def wall_forces(self) -> dict:
         """Force [N] and torque [N m] (about each row's origin) on every wall group:
         ``{group name: (force (3,), torque (3,))}``; torques of a group's rows are summed
         about their own origins (identical for rigid groups sharing an origin)."""
-        rows, q = self._walls.rows, self._store.walls
-        out = np.zeros((rows.n, 6))
-        if rows.n and self.n_spheres and self._forces_valid:
-            _forces.wall_totals(q.start, q.other, q.out, q.act, rows.n, out)
-        return {name: (out[rows.group == g, :3].sum(axis=0),
-                       out[rows.group == g, 3:].sum(axis=0))
-                for g, name in enumerate(self._walls.group_names())}
+        return self._walls.forces(self._store.walls, self._forces_valid)
 
     def contacts(self):
         """Current particle-particle contacts as (i_sphere, j_sphere, force on i (3,)),
         spheres in user order."""
-        self._ordering.to_user(self._store)
-        p = self._store.pairs
-        rows = np.repeat(np.arange(p.start.shape[0] - 1), np.diff(p.start))
-        active = p.act[:p.size]
-        i, j = rows[active], p.other[:p.size][active]
-        # the lists are in the engine's order
-        return (self._ordering.user_spheres(i), self._ordering.user_spheres(j),
-                p.out[:p.size][active, :3])
+        return self._view.contacts(self._store.pairs)
 
     def contact_lists(self):
         """The engine's contact lists ``(pairs, walls)``
@@ -411,6 +402,7 @@ class Simulation:
         """Restore a state written by :meth:`save_checkpoint` into this simulation,
         built with the same materials, walls, contact model and particle templates
         (templates are referred to by index)."""
+        self._view.close(self._store)
         _checkpoint.restore_simulation(self, path)
         self._generation += 1
         return self

@@ -79,6 +79,7 @@ def advance(sim, nsteps: int) -> None:
     """Advance ``sim`` by exactly ``nsteps`` steps."""
     if nsteps <= 0:
         return
+    sim._view.close(sim._store)   # what the user wrote into sim.state
     store, walls = sim._store, sim._walls
     sim._ordering.to_engine(store)
     if store.spheres.n == 0:

@@ -194,9 +194,17 @@ class Store:
         return sorder
 
 
-@dataclass
+@dataclass(frozen=True)
 class State:
-    """Live views of the simulation arrays (SI units). Copy what you keep.
+    """The particles at one step, in user order (SI units): ``sim.state``.
+
+    Copies of the engine's arrays, made when read (:meth:`Ordering.view
+    <demcal.dem.ordering.Ordering.view>`), so reading never disturbs the engine.
+    ``positions``, ``velocities``, ``omegas``, ``quaternions``, ``angular_momenta`` and
+    ``fixed`` may be written in place (``sim.state.velocities[0] = ...``): the next run
+    (or change of the particles, or checkpoint) starts from what was written. From then
+    on this state is a record of its ``time`` and ``step``, read-only; ``sim.state``
+    gives the new one. The other fields are read-only throughout.
 
     Bodies (one per particle, ``n`` rows): ``positions`` [m] (centre of mass),
     ``velocities`` [m/s], ``omegas`` [rad/s] (world frame), ``quaternions`` (w, x, y, z;
@@ -232,13 +240,3 @@ class State:
     def n(self) -> int:
         """Number of particles (bodies)."""
         return self.positions.shape[0]
-
-    @classmethod
-    def of(cls, store: Store, time: float, step: int) -> "State":
-        b, s = store.bodies, store.spheres
-        return cls(positions=b.pos, velocities=b.vel, omegas=b.omega, quaternions=b.quat,
-                   angular_momenta=b.angmom, forces=b.force, torques=b.torque,
-                   masses=b.mass, inertias=b.inertia, materials=b.mat,
-                   templates=b.template, scales=b.scale, fixed=b.fixed,
-                   sphere_positions=s.pos, radii=s.radius, sphere_body=s.body, time=time,
-                   step=step)

@@ -18,6 +18,7 @@ from demcal.errors import ConfigError
 from demcal.geometry.kernels import CONE, CYLINDER, DISK
 from demcal.geometry.placement import ROTATION, TRANSLATION
 
+from .forces import wall_totals
 from .storage import ContactList
 
 
@@ -185,3 +186,14 @@ class WallTable:
         groups = self.rows.group
         return self.names or [f"wall{g}" for g in range(int(groups.max()) + 1
                                                         if self.rows.n else 0)]
+
+    def forces(self, contacts: ContactList, valid: bool) -> dict:
+        """``{group name: (force (3,), torque (3,))}`` on each wall group from the wall
+        contacts' outputs (zero until the forces have been evaluated: ``valid``)."""
+        rows = self.rows
+        out = np.zeros((rows.n, 6))
+        if rows.n and contacts.start.shape[0] > 1 and valid:
+            wall_totals(contacts.start, contacts.other, contacts.out, contacts.act, rows.n, out)
+        return {name: (out[rows.group == g, :3].sum(axis=0),
+                       out[rows.group == g, 3:].sum(axis=0))
+                for g, name in enumerate(self.group_names())}
