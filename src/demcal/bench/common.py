@@ -180,6 +180,9 @@ def particle_settings(profile: str, count: int) -> list[Setting]:
         Setting("particles.shape", "two-sphere", "-",
                 "particle shape: the paper's 4 mm + 5 mm two-sphere unit, or a 4.5 mm sphere",
                 choices=SHAPES),
+        Setting("particles.centre_distance", 0.007, "m",
+                "distance between the two spheres' centres of the two-sphere unit (our choice; the "
+                "paper gives none: 7 mm, aspect ratio 1.6)", 0.0, 0.0085),
         Setting("particles.scale_min", 0.5, "-", "smallest size factor (paper: 0.5)", 0.05, 10.0),
         Setting("particles.scale_max", 1.5, "-", "largest size factor (paper: 1.5)", 0.05, 10.0),
     ]
@@ -223,7 +226,7 @@ def template_for(s: Mapping[str, Any]):
 
     if s["particles.shape"] == "sphere":
         return sphere(0.0045, name="sphere")
-    return two_sphere_paper()
+    return two_sphere_paper(offset=float(s.get("particles.centre_distance", 0.007)))
 
 
 def sizes_for(s: Mapping[str, Any]):

@@ -419,7 +419,8 @@ def particle(parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     from demcal.bench.common import template_for
 
     shape = _value(parameters, "particles.shape", "two-sphere")
-    template = template_for({"particles.shape": shape})
+    template = template_for({"particles.shape": shape, "particles.centre_distance":
+                             float(_value(parameters, "particles.centre_distance", 0.007))})
     spheres = [{"radius": float(r), "centre": [_nm(x) for x in c]}
                for r, c in zip(template.radii, template.centers)]
     out = {"shape": shape, "spheres": spheres,
