@@ -4,6 +4,7 @@ ETA and speed; rewritten in place on a terminal, plain lines in a log."""
 import io
 
 from demcal.bench import common as C
+from demcal.bench.experiment import Phase, Setup, run_phase
 from demcal.bench.registry import get_experiment
 from demcal.cli import main
 from demcal.dem.reporters import StatusLine
@@ -26,20 +27,18 @@ class _Sim:
     """What the progress reads of a simulation; each step costs ``wall_per_step`` seconds
     of the fake clock. ``run`` is the engine's run control in small (``dem/control.py``):
     reporters asked when they next want data, reported to when due, ended by
-    ``StopRun``, and ``extra_reporters`` added to every run as the benches'
-    simulations do (``make_simulation``)."""
+    ``StopRun``."""
 
     def __init__(self, clock, dt=0.01, wall_per_step=0.1):
         self.clock, self.dt, self.wall_per_step = clock, dt, wall_per_step
         self.time, self.step_count, self.n_particles = 0.0, 0, 0
-        self.extra_reporters = ()
 
     def run(self, steps, reporters=()):
         from types import SimpleNamespace
 
         from demcal.dem.reporters import StopRun
 
-        reporters = [*reporters, *self.extra_reporters]
+        reporters = list(reporters)
         for r in reporters:
             if hasattr(r, "start"):
                 r.start(self, steps)
@@ -100,18 +99,14 @@ def test_status_line_is_cut_to_the_terminal_width(monkeypatch):
     assert out.getvalue() == "\r" + "x" * 16 + "...\x1b[K"
 
 
-def test_run_until_shows_time_share_of_the_limit_eta_and_pace():
+def test_a_phase_shows_time_share_of_the_limit_eta_and_pace():
     out, clock = io.StringIO(), _Clock()
     progress = C.Progress(True, file=out, log_interval=5.0, clock=clock)
     sim = _Sim(clock)
-    sim.extra_reporters = (progress.reporter,)
-    token = C._PROGRESS.set(progress)
-    try:
+    with C.showing(progress):
         # 10 steps of 0.01 s per chunk, 1 s of wall time per chunk: 10 s per simulated s
-        assert not C.run_until(sim, 0.1, lambda: False, max_time=2.0)
-        sim.run(steps=10)          # after the limit: no share, no ETA
-    finally:
-        C._PROGRESS.reset(token)
+        assert run_phase(Setup(sim, []), Phase(lambda: False, max_time=2.0, chunk=0.1)) == "time limit"
+        sim.run(steps=10, reporters=[progress.reporter])   # after the limit: no share, no ETA
     lines = out.getvalue().splitlines()
     assert "\r" not in out.getvalue()
     assert lines[0] == ("  [   5.0 s] t = 0.500 s (25 % of the 2 s limit), ETA at most 15 s, "
@@ -121,7 +116,7 @@ def test_run_until_shows_time_share_of_the_limit_eta_and_pace():
     assert lines[-1] == "  [  20.0 s] t = 2.000 s (100 % of the 2 s limit), ETA at most 0 s, 10 s per simulated s"
     assert len(lines) == 4
     clock.now += 5.0
-    progress.update(sim)   # outside run_until: time and pace only
+    progress.update(sim)   # outside a phase: time and pace only
     assert out.getvalue().splitlines()[-1] == "  [  26.0 s] t = 2.100 s, 12.5 s per simulated s"
 
 

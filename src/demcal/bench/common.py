@@ -1,4 +1,6 @@
-"""What the virtual bench tests share: settings tables, materials, the run loop.
+"""What the virtual bench tests share: settings tables, materials, progress, the watch.
+
+The shape of a test (build, phases, measure) is :mod:`demcal.bench.experiment`.
 
 Settings
 --------
@@ -56,19 +58,17 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
-import functools
 import math
 import time
 from collections import deque
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
-from demcal.bench.registry import RunResult, Setting, resolve_settings
+from demcal.bench.registry import Setting
 from demcal.dem.contact.registry import preset_names, rolling_names
 from demcal.dem.contact.table import coefficient_names, declared_coefficient
-from demcal.dem.reporters import Reporter, StopRun, TimeLimit
 from demcal.errors import ConfigError
 from demcal.geometry.motion import Motion
 
@@ -318,41 +318,32 @@ def skin_for(template) -> float:
 
 def make_simulation(s: Mapping[str, Any], materials, interactions, walls, dt: float,
                     gravity=(0.0, 0.0, -G), domain=None, skin=None):
-    """A Simulation with the settings' contact and rolling models and step ``dt`` [s].
-
-    While a test runs with its progress shown (:class:`Progress`), every run of the
-    simulation also reports to it (:func:`_reporting_simulation`).
-    """
+    """A Simulation with the settings' contact and rolling models and step ``dt`` [s]."""
     from demcal.dem import Simulation
 
-    progress = _PROGRESS.get()
-    shown = progress is not None and progress.enabled
-    cls = _reporting_simulation() if shown else Simulation
-    sim = cls(materials, interactions, walls=walls, gravity=gravity, dt=dt,
-              contact_model=s["contact.model"], rolling_model=s["rolling.model"],
-              domain=domain, skin=skin)
-    if shown:
-        sim.extra_reporters = (progress.reporter,)
-    return sim
+    return Simulation(materials, interactions, walls=walls, gravity=gravity, dt=dt,
+                      contact_model=s["contact.model"], rolling_model=s["rolling.model"],
+                      domain=domain, skin=skin)
 
 
-@functools.cache
-def _reporting_simulation():
-    """A :class:`~demcal.dem.Simulation` that adds ``extra_reporters`` to every run."""
-    from demcal.dem import Simulation
-
-    class ReportingSimulation(Simulation):
-        extra_reporters = ()
-
-        def run(self, duration=None, steps=None, reporters=()):
-            return super().run(duration=duration, steps=steps,
-                               reporters=[*reporters, *self.extra_reporters])
-
-    return ReportingSimulation
-
-
-#: The :class:`Progress` of the test running in this thread (set by BenchExperiment.run).
+#: The :class:`Progress` of the test running in this thread (see :func:`showing`).
 _PROGRESS: contextvars.ContextVar[Progress | None] = contextvars.ContextVar("progress", default=None)
+
+
+def current_progress() -> Progress | None:
+    """The :class:`Progress` of the test running in this thread, if any."""
+    return _PROGRESS.get()
+
+
+@contextlib.contextmanager
+def showing(progress: Progress):
+    """Within the block, ``progress`` is the running test's display (closed at the end)."""
+    token = _PROGRESS.set(progress)
+    try:
+        yield progress
+    finally:
+        _PROGRESS.reset(token)
+        progress.close()
 
 
 def _duration(seconds: float) -> str:
@@ -391,7 +382,7 @@ class Progress:
     terminal, one plain line every ``log_interval`` seconds in a log) with
 
     * the simulated time ``t``;
-    * while the test runs towards a time limit (:func:`run_until`, which stops at
+    * while the test runs towards a time limit (a phase of :mod:`demcal.bench.experiment`, which stops at
       ``time.max_time`` at the latest but usually sooner, once the particles are at
       rest), the share of that limit reached and the ETA to it, an upper bound;
     * the wall time per simulated second (over the last 30 s);
@@ -534,62 +525,10 @@ def rms_speed(sim) -> float:
 def rest(limit: float):
     """The kinetic-energy rest criterion, :func:`rms_speed` below ``limit`` [m/s] at two
     checks in a row: the engine's :class:`~demcal.dem.reporters.RestDetector` (its
-    interval is set by :func:`run_until`)."""
+    interval is set by :func:`demcal.bench.experiment.run_phase`)."""
     from demcal.dem.reporters import RestDetector
 
     return RestDetector(1, limit, checks=2)
-
-
-class BenchExperiment:
-    """Base of the built-in virtual tests: a settings table per profile and a timed run.
-
-    Subclasses set ``name``, ``description``, ``responses`` and implement
-    :meth:`_settings` (the table for a profile) and :meth:`_run` (resolved settings,
-    seed, out_dir, vtk, progress -> dict with ``responses``, ``spread``, ``particles``,
-    ``steps``, ``simulated_s``, ``artifacts``).
-    """
-
-    name = ""
-    description = ""
-    responses: tuple[str, ...] = ()
-    profiles: tuple[str, ...] = PROFILES
-
-    def settings(self, profile: str = "quick") -> dict[str, Setting]:
-        if profile not in self.profiles:
-            raise ConfigError(f"unknown profile '{profile}' for {self.name}; choose one of: "
-                              f"{', '.join(self.profiles)}.")
-        return table(self._settings(profile))
-
-    def _settings(self, profile: str) -> list[Setting]:  # pragma: no cover - abstract
-        raise NotImplementedError
-
-    def resolve(self, settings: Mapping[str, Any] | None, profile: str) -> dict[str, Any]:
-        return resolve_settings(self, settings, profile)
-
-    def run(self, settings: Mapping[str, Any] | None = None, seed: int = 0, profile: str = "quick",
-            out_dir: str | Path | None = None, vtk: bool = False, progress: bool = False) -> RunResult:
-        """Simulate and measure; artifacts (PNG, VTK) go to ``out_dir`` if given."""
-        from demcal._checks import check_seed
-
-        s = self.resolve(settings, profile)
-        seed = check_seed(seed, "seed")
-        if out_dir is not None:
-            Path(out_dir).mkdir(parents=True, exist_ok=True)
-        start = time.perf_counter()
-        shown = Progress(bool(progress), rest_speed=s.get("time.rest_speed"))
-        token = _PROGRESS.set(shown)
-        try:
-            out = self._run(s, int(seed), out_dir, bool(vtk), shown)
-        finally:
-            _PROGRESS.reset(token)
-            shown.close()
-        return RunResult(test=self.name, responses=out["responses"], spread=out.get("spread", {}),
-                         particles=int(out.get("particles", 0)), steps=int(out.get("steps", 0)),
-                         simulated_s=float(out.get("simulated_s", 0.0)),
-                         wall_s=time.perf_counter() - start, artifacts=out.get("artifacts", {}))
-
-    def _run(self, s, seed, out_dir, vtk, progress) -> dict:  # pragma: no cover - abstract
-        raise NotImplementedError
 
 
 def show(sim) -> None:
@@ -600,54 +539,6 @@ def show(sim) -> None:
     progress = _PROGRESS.get()
     if progress is not None and progress.enabled:
         progress.update(sim)
-
-
-class _Phase(Reporter):
-    """One phase of a bench test as an engine reporter: every ``interval`` steps the
-    progress display (``progress``) and ``each()``, then ``stop()`` (true: "done")."""
-
-    def __init__(self, interval, each=None, stop=None, progress: bool = False):
-        super().__init__(interval)
-        self.each, self.stop, self.progress = each, stop, progress
-
-    def report(self, sim):
-        if self.progress:
-            show(sim)
-        if self.each is not None:
-            self.each()
-        if self.stop is not None and self.stop():
-            raise StopRun("done")
-
-
-def run_until(sim, chunk: float, stop, max_time: float, each: Callable[[], None] | None = None,
-              watch: Watch | None = None) -> bool:
-    """Run one phase of a test on the engine's run control until ``stop`` or
-    ``sim.time >= max_time``, looking every ``chunk`` [s].
-
-    ``stop`` is a callable (true: the phase is over) or an engine reporter that ends the
-    run with :class:`~demcal.dem.reporters.StopRun` (a :func:`rest` criterion); it is
-    asked every ``chunk``, after ``each()`` (insertion, controllers) and the ``watch``'s
-    reporters (its blow-up check at the phase's pace). Returns whether the phase ended by
-    ``stop``. The test's progress shows ``max_time`` as the limit.
-    """
-    steps = max(1, int(round(chunk / sim.dt)))
-    if sim.time >= max_time:
-        return False
-    progress = _PROGRESS.get()
-    if hasattr(stop, "next_report"):  # an engine reporter: it looks at the phase's pace
-        stop.interval = steps
-        end = stop
-    else:
-        end = _Phase(steps, stop=stop)
-    watching = []
-    if watch is not None:
-        watch.blowup.interval = steps
-        watching = watch.reporters
-    # all due every `steps`, in this order: progress and each(), the watch, the end, the limit
-    ordered = [_Phase(steps, each=each, progress=True), *watching, end, TimeLimit(steps, max_time)]
-    with progress.time_limit(max_time) if progress is not None else contextlib.nullcontext():
-        summary = sim.run(steps=1 << 62, reporters=ordered)
-    return summary.stopped in ("done", "at rest")
 
 
 class DrivenTranslation(Motion):

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 
 from demcal.bench import common as C
+from demcal.bench.experiment import BenchExperiment, Phase, Setup
 from demcal.bench.registry import Setting, register
 from demcal.dem.reporters import Reporter, StopRun
 from demcal.errors import SimulationError
@@ -30,7 +31,7 @@ from demcal.errors import SimulationError
 TARGETS = ("particle", "wall", "film")
 
 
-class Impact(C.BenchExperiment):
+class Impact(BenchExperiment):
     name = "impact"
     description = ("a sphere shot at an equal sphere, a steel wall or the film; measures the "
                    "coefficient of restitution of that interaction")
@@ -46,7 +47,7 @@ class Impact(C.BenchExperiment):
                             "time step as a fraction of the shortest contact duration", 0.001, 0.2),
                 ])
 
-    def _run(self, s, seed, out_dir, vtk, progress):
+    def build(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Plane, WallSet
         from demcal.particles.materials import steel
         from demcal.particles.templates import sphere
@@ -78,28 +79,21 @@ class Impact(C.BenchExperiment):
                 return float(st.positions[1, 2] - st.positions[0, 2]) - 2 * r
             return float(st.positions[0, 2]) - r
 
-        def normal_speed():
-            st = sim.state
-            if target == "particle":
-                return float(st.velocities[1, 2] - st.velocities[0, 2])
-            return float(st.velocities[0, 2])
+        # the impact, watched every 10 steps until the bodies are clear of each other
+        contact = _Contact(separation, 50.0 * (gap / v) + 1.0)
+        impact = Phase(contact, chunk=None, ok=("clear",),
+                       failure="the impact did not finish (the sphere stuck to its target); "
+                               "check the restitution and damping settings.")
+        return Setup(sim, [impact], C.Watch(sim, "impact", 10), info=dict(target=target, speed=v))
 
-        t_max = 50.0 * (gap / v) + 1.0
-        watch = C.Watch(sim, "impact", 10)
-        contact = _Contact(separation, t_max)
-        summary = sim.run(steps=1 << 62, reporters=[contact])
-        if summary.stopped != "clear":
-            raise SimulationError("the impact did not finish (the sphere stuck to its target); "
-                                  "check the restitution and damping settings.")
-        vn = normal_speed()
+    def measure(self, setup, s, out_dir, progress):
+        st, target, v = setup.sim.state, setup.info["target"], setup.info["speed"]
+        vn = float(st.velocities[1, 2] - st.velocities[0, 2]) if target == "particle" else float(st.velocities[0, 2])
         e = vn / v
-        watch.check()
         if not math.isfinite(e):
             raise SimulationError("the impact simulation blew up; lower time.step_fraction.")
         progress(f"impact on {target}: e = {e:.5f} (set {s[_prefix(target) + '.restitution']:.5f})")
-        return dict(responses={"restitution": float(e)},
-                    spread={}, particles=sim.n_particles, steps=sim.step_count,
-                    simulated_s=sim.time, artifacts={})
+        return dict(responses={"restitution": float(e)})
 
 
 class _Contact(Reporter):

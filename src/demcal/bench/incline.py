@@ -76,9 +76,10 @@ import math
 import numpy as np
 
 from demcal.bench import common as C
+from demcal.bench.experiment import BenchExperiment, Phase, Setup
 from demcal.bench.registry import Setting, register
 from demcal.dem.reporters import Reporter, StopRun
-from demcal.errors import ConfigError, SimulationError
+from demcal.errors import ConfigError
 
 #: Controller and sampling interval [s].
 CHECK = 0.005
@@ -99,7 +100,7 @@ def block_template(radius: float = 0.005):
     return ParticleTemplate.from_spheres(spheres, name="block", resolution=128)
 
 
-class Incline(C.BenchExperiment):
+class Incline(BenchExperiment):
     name = "incline"
     description = ("inclined-plane test on agricultural film: the plate tilts slowly until the "
                    "material in a bottomless container starts to slide; reports that angle")
@@ -143,7 +144,7 @@ class Incline(C.BenchExperiment):
                                    film=True)
 
     # ------------------------------------------------------------------------------
-    def _run(self, s, seed, out_dir, vtk, progress):
+    def build(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Cylinder, Plane, WallSet
         from demcal.particles.insertion import CylinderRegion, insert
         from demcal.particles.materials import Interaction, steel
@@ -204,30 +205,34 @@ class Incline(C.BenchExperiment):
         # 1. the bed settles on the flat plate
         max_time = float(s["time.max_time"])
         if settle_time is not None:
-            sim.run(duration=settle_time)
+            settle = Phase(duration=settle_time)
         else:
-            rest = C.rest(float(s["time.rest_speed"]))
-            if not C.run_until(sim, 0.02, rest, max_time, watch=watch):
-                raise SimulationError(f"the bed did not settle within time.max_time = {max_time:g} s; "
-                                      "raise time.max_time.")
-            if s["incline.container"] == "remove":
-                motion.place((0.0, 0.0, 100.0))
-        progress(f"bed at rest at t {sim.time:.2f} s; tilting")
+            settle = Phase(C.rest(float(s["time.rest_speed"])), max_time,
+                           failure=f"the bed did not settle within time.max_time = {max_time:g} s; "
+                                   "raise time.max_time.")
 
         # 2. tilt gravity at a constant rate; the container follows the material
         tilt = _Tilt(sim, s, motion, container, start, rate, block, progress)
-        reporters = [tilt.rim] if tilt.rim is not None else []
-        watch.blowup.interval = tilt.interval
-        summary = sim.run(steps=1 << 62, reporters=[*reporters, *watch.reporters, tilt])
-        if summary.stopped != "sliding":
-            raise SimulationError(
-                f"the material did not slide up to {tilt.angles[-1]:.1f} deg (incline.max_angle "
-                f"{max_angle:g} deg, time.max_time {max_time:g} s); raise them.")
-        watch.last_frame()
+
+        def start_tilt():
+            if container is not None and s["incline.container"] == "remove":
+                motion.place((0.0, 0.0, 100.0))
+            progress(f"bed at rest at t {sim.time:.2f} s; tilting")
+
+        tilting = Phase(tilt, chunk=None, start=start_tilt, reporters=[tilt.rim] if tilt.rim is not None else [],
+                        ok=("sliding",),
+                        failure=lambda: (f"the material did not slide up to {tilt.angles[-1]:.1f} deg "
+                                         f"(incline.max_angle {max_angle:g} deg, time.max_time {max_time:g} s); "
+                                         "raise them."))
+        return Setup(sim, [settle, tilting], watch, info=dict(tilt=tilt, block=block, start=start, rate=rate,
+                                                             particles=n))
+
+    def measure(self, setup, s, out_dir, progress):
+        tilt, block, start, rate = (setup.info[k] for k in ("tilt", "block", "start", "rate"))
         times, angles, speeds = tilt.times, tilt.angles, tilt.speeds
         film_ratio, push_ratio, moved_at = tilt.film_ratio, tilt.push_ratio, tilt.moved_at
         v_detect = tilt.v_detect
-        base = base_kinematics(sim.state) if not block else {}
+        base = base_kinematics(setup.sim.state) if not block else {}
         theta_c, theta_d = onset_angle(np.array(times), np.array(angles), np.array(speeds), v_detect)
         if not block:
             at = int(np.argmin(np.abs(np.array(angles) - theta_c)))
@@ -250,11 +255,10 @@ class Incline(C.BenchExperiment):
             progress(f"warning: the material moved as soon as tilting began at {start:g} deg; "
                      "the angle is an upper bound -- lower incline.start_angle")
         spread = {"sliding_angle_deg": math.degrees(rate) * CHECK}
-        artifacts = {"vtk": watch.path} if watch.path else {}
+        artifacts = {"vtk": setup.watch.path} if setup.watch.path else {}
         if out_dir is not None:
             artifacts["incline_png"] = _plot(out_dir, times, angles, speeds, theta_c, v_detect)
-        return dict(responses=responses, spread=spread, particles=n, steps=sim.step_count,
-                    simulated_s=sim.time, artifacts=artifacts)
+        return dict(responses=responses, spread=spread, particles=setup.info["particles"], artifacts=artifacts)
 
 
 class _Tilt(Reporter):
@@ -269,8 +273,7 @@ class _Tilt(Reporter):
     def __init__(self, sim, s, motion, container, start, rate, block, progress):
         self.sim, self.motion, self.block, self.progress = sim, motion, block, progress
         super().__init__(max(1, int(round(CHECK / sim.dt))))
-        self._origin = sim.step_count  # (the rigid container's reporter counts from it)
-        self.start_deg, self.rate, self.t0 = start, rate, sim.time
+        self.start_deg, self.rate = start, rate
         self.weight = float(sim.state.masses.sum()) * C.G
         self.follow = container is not None and s["incline.container"] == "follow"
         rigid = container is not None and s["incline.container"] == "rigid"
@@ -281,13 +284,19 @@ class _Tilt(Reporter):
         self.times, self.angles, self.speeds = [], [], []
         self.film_ratio, self.push_ratio = [], []  # mobilised film friction; container push / weight
         self.moved_at = None  # tilt [deg] when the material had moved `visible` down the slope
-        self.x0 = _mean_x(sim)
         self._last = 0.0
         self.rim = None
         if rigid:
             body = RigidContainer(float(s["incline.container_mass"]) * self.weight,
                                   float(s["incline.container_friction"]), self.v_ref, self.weight)
             self.rim = _Rim(self, body, max(1, int(round(RIGID_CHECK / sim.dt))))
+
+    def start(self, sim, total_steps):
+        """The tilt begins: from now (``t0``; the rigid container's reporter counts its
+        steps from here too) and the bed's position now (``x0``)."""
+        super().start(sim, total_steps)
+        self.t0 = sim.time
+        self.x0 = _mean_x(sim)
         self._set_gravity()
 
     def tilt_at(self, t):

@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from demcal.bench import common as C
+from demcal.bench.experiment import BenchExperiment, Phase, Setup
 from demcal.bench.registry import Setting, register
 from demcal.errors import ConfigError, DemcalError, SimulationError
 
@@ -163,7 +164,7 @@ def _measure(sim, s, plate_radius, out_dir, watch, progress) -> dict:
                 artifacts=artifacts)
 
 
-class ReposeFunnel(C.BenchExperiment):
+class ReposeFunnel(BenchExperiment):
     name = "repose-funnel"
     description = ("angle of repose by the funnel (injection) method: particles flow through "
                    "a funnel onto a round plate; the heap at rest is measured from its silhouette")
@@ -182,7 +183,7 @@ class ReposeFunnel(C.BenchExperiment):
                     "outlet height above the plate at scale 1", 0.001, 5.0),
         ])
 
-    def _run(self, s, seed, out_dir, vtk, progress):
+    def build(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Disk, Funnel, WallSet
         from demcal.particles.insertion import CylinderRegion, Inserter
 
@@ -268,18 +269,21 @@ class ReposeFunnel(C.BenchExperiment):
                 in_funnel = 0
             return settle.at_rest(sim, in_funnel == 0)
 
-        done = C.run_until(sim, 0.02, stop, float(s["time.max_time"]), each, watch)
-        watch.last_frame()
-        if not done:
-            st = sim.state
-            in_funnel = int(np.sum(st.positions[:, 2] > h_out - 0.5 * b_max))
-            raise SimulationError(
-                f"the heap was not at rest after time.max_time = {s['time.max_time']:g} s "
-                f"({in_funnel} particles still in the funnel, rms speed {C.rms_speed(sim):.3g} m/s); "
-                "raise time.max_time.")
-        out = _measure(sim, s, r_plate, out_dir, watch, progress)
-        out["responses"]["particles_held"] = float(held[0])
-        out["particles"] += held[0]
+        def not_at_rest():
+            in_funnel = int(np.sum(sim.state.positions[:, 2] > h_out - 0.5 * b_max))
+            return (f"the heap was not at rest after time.max_time = {s['time.max_time']:g} s "
+                    f"({in_funnel} particles still in the funnel, rms speed {C.rms_speed(sim):.3g} m/s); "
+                    "raise time.max_time.")
+
+        # one phase: the pour through the funnel until the heap is at rest
+        pour = Phase(stop, float(s["time.max_time"]), each=each, failure=not_at_rest)
+        return Setup(sim, [pour], watch, info=dict(r_plate=r_plate, held=held))
+
+    def measure(self, setup, s, out_dir, progress):
+        out = _measure(setup.sim, s, setup.info["r_plate"], out_dir, setup.watch, progress)
+        held = setup.info["held"][0]
+        out["responses"]["particles_held"] = float(held)
+        out["particles"] += held
         return out
 
 
@@ -299,7 +303,7 @@ def _jammed(sim, h_out, b_max) -> bool:
     return bool(speed.max() < 1e-3)
 
 
-class ReposeCylinder(C.BenchExperiment):
+class ReposeCylinder(BenchExperiment):
     name = "repose-cylinder"
     description = ("angle of repose by the lifted cylinder: a cylinder on the plate is filled, "
                    "lifted, and the heap at rest is measured from its silhouette")
@@ -314,7 +318,7 @@ class ReposeCylinder(C.BenchExperiment):
                     "cylinder lifting speed", 0.001, 10.0),
         ])
 
-    def _run(self, s, seed, out_dir, vtk, progress):
+    def build(self, s, seed, out_dir, vtk, progress):
         from demcal.geometry import Cylinder, Disk, Translation, WallSet
         from demcal.particles.insertion import CylinderRegion, insert
 
@@ -344,24 +348,32 @@ class ReposeCylinder(C.BenchExperiment):
         progress(f"repose-cylinder: {n} particles, dt {dt:.3g} s, cylinder {2 * r_cyl * 1e3:.0f} mm")
         max_time = float(s["time.max_time"])
         limit = float(s["time.rest_speed"])
-        if not C.run_until(sim, 0.02, C.rest(limit), max_time, watch=watch):
-            raise SimulationError(f"the filled cylinder did not settle within time.max_time = {max_time:g} s; "
-                                  "raise time.max_time.")
-        progress(f"settled at t {sim.time:.2f} s; lifting")
-        top = float((sim.state.sphere_positions[:, 2] + sim.state.radii).max())
         v = float(s["geometry.lift_speed"])
-        t_lift = sim.time
-        t_clear = sim.time + (top + b_max) / v
-        # a steady lift, placed at every step by the engine's compiled loop
-        walls.set_motion("cylinder", Translation(velocity=(0.0, 0.0, v), start=t_lift, stop=t_clear))
-        C.run_until(sim, 0.02, lambda: sim.time >= t_clear, max_time, watch=watch)
-        motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))  # then out of the way
-        walls.set_motion("cylinder", motion)
-        if not C.run_until(sim, 0.02, C.rest(limit), max_time, watch=watch):
-            raise SimulationError(f"the heap was not at rest after time.max_time = {max_time:g} s; "
-                                  "raise time.max_time.")
-        watch.last_frame()
-        return _measure(sim, s, r_plate, out_dir, watch, progress)
+        lift = {}
+
+        def start_lift():
+            progress(f"settled at t {sim.time:.2f} s; lifting")
+            st = sim.state
+            top = float((st.sphere_positions[:, 2] + st.radii).max())
+            lift["clear"] = sim.time + (top + b_max) / v
+            # a steady lift, placed at every step by the engine's compiled loop
+            walls.set_motion("cylinder", Translation(velocity=(0.0, 0.0, v), start=sim.time, stop=lift["clear"]))
+
+        def out_of_the_way():
+            motion.place((0.0, 0.0, 10.0 * (fill_h + 1.0)))
+            walls.set_motion("cylinder", motion)
+
+        phases = [
+            Phase(C.rest(limit), max_time, failure=f"the filled cylinder did not settle within "
+                                                   f"time.max_time = {max_time:g} s; raise time.max_time."),
+            Phase(lambda: sim.time >= lift["clear"], max_time, start=start_lift),
+            Phase(C.rest(limit), max_time, start=out_of_the_way,
+                  failure=f"the heap was not at rest after time.max_time = {max_time:g} s; raise time.max_time."),
+        ]
+        return Setup(sim, phases, watch, info=dict(r_plate=r_plate))
+
+    def measure(self, setup, s, out_dir, progress):
+        return _measure(setup.sim, s, setup.info["r_plate"], out_dir, setup.watch, progress)
 
 
 register(ReposeFunnel())

@@ -9,7 +9,7 @@ change the simulation (add particles, tilt gravity, move a wall). A reporter end
 run by raising :class:`StopRun` (the run returns normally, its summary saying why) or
 an error. Progress, energy, blow-up detection, the rest criterion, VTK output and
 checkpoints are reporters, not code inside the physics; the bench tests run their
-phases this way (:func:`demcal.bench.common.run_until`). :class:`StatusLine` is the
+phases this way (:func:`demcal.bench.experiment.run_phase`). :class:`StatusLine` is the
 one-line display that progress reporters write to: rewritten in place on a terminal,
 plain lines in a log.
 """
