@@ -162,3 +162,19 @@ def test_contact_history_survives_reordering(backend, rolling, tmp_path):
             assert sim.sorts >= 1
         ends.append(sim.state.positions.copy())
     assert np.abs(ends[0] - ends[1]).max() < 1e-12   # a wrong sign: ~3e-6 m
+
+
+def test_a_refused_add_keeps_the_state_and_names_user_indices(backend):
+    from demcal.errors import ConfigError
+
+    sim = _sorting(pour(backend, 300, 0.03))
+    sim.run(duration=0.05)
+    assert not np.array_equal(sim.engine_order, np.arange(300))
+    st = sim.state
+    st.velocities[3] = (0.1, 0.0, 0.0)   # a write still pending
+    k = 7
+    with pytest.raises(ConfigError, match=f"particles {k} and 300 overlap"):
+        sim.add_particles(radii=float(st.radii[k]), positions=[st.positions[k]])
+    assert sim.state is st and st.velocities.flags.writeable   # nothing changed: the same state
+    sim.run(steps=1)
+    assert sim.state.velocities[3, 0] == pytest.approx(0.1, abs=0.01)   # the write was taken

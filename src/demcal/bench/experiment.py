@@ -43,7 +43,8 @@ class Phase:
     each : called every ``chunk`` before the end is asked (insertion, a progress line).
     start : called just before the phase runs (move a wall, say what happens next).
     reporters : more engine reporters, ahead of the watch's (a rigid container).
-    duration : run exactly this long [s] instead (``sim.run(duration=...)``).
+    duration : run exactly this long [s] instead (``sim.run(duration=...)``, with the
+        progress display only: no end, reporters or watch).
     ok : the :class:`StopRun` reasons that mean the phase did its job.
     failure : the error (a sentence, or a callable giving it) when the phase ends any
         other way; None: carry on.
@@ -98,30 +99,28 @@ def run_phase(setup: Setup, phase: Phase) -> str | None:
     progress = C.current_progress()
     shown = [progress.reporter] if progress is not None and progress.enabled else []
     watching = list(watch.reporters) if watch is not None else []
-    limit = contextlib.nullcontext()
     if phase.duration is not None:
         stopped = sim.run(duration=phase.duration, reporters=shown).stopped
         return stopped
-    if phase.chunk is None:  # the end reporter keeps its own pace
-        if watch is not None:
-            watch.blowup.interval = phase.end.interval
-        ordered = [*phase.reporters, *watching, phase.end]
-        if phase.max_time is not None:
-            ordered.append(TimeLimit(phase.end.interval, phase.max_time))
-        stopped = sim.run(steps=1 << 62, reporters=[*ordered, *shown]).stopped
-    elif phase.max_time is not None and sim.time >= phase.max_time:
+    if phase.max_time is not None and sim.time >= phase.max_time:
         stopped = None
     else:
-        steps = max(1, int(round(phase.chunk / sim.dt)))
-        if hasattr(phase.end, "next_report"):  # an engine reporter: it looks at the phase's pace
-            phase.end.interval = steps
-            end = phase.end
+        if phase.chunk is None:  # the end reporter keeps its own pace
+            steps, ahead, end = phase.end.interval, [], phase.end
         else:
-            end = _Look(steps, stop=phase.end)
+            steps = max(1, int(round(phase.chunk / sim.dt)))
+            # progress and each() first, all due every `steps`
+            ahead = [_Look(steps, each=phase.each, progress=True)]
+            if hasattr(phase.end, "next_report"):  # an engine reporter: it looks at the phase's pace
+                phase.end.interval = steps
+                end = phase.end
+            else:
+                end = _Look(steps, stop=phase.end)
         if watch is not None:
             watch.blowup.interval = steps
-        # all due every `steps`, in this order: progress and each(), the watch, the end, the limit
-        ordered = [_Look(steps, each=phase.each, progress=True), *phase.reporters, *watching, end]
+        # in this order: progress and each(), the phase's reporters, the watch, the end, the limit
+        ordered = [*ahead, *phase.reporters, *watching, end]
+        limit = contextlib.nullcontext()
         if phase.max_time is not None:
             ordered.append(TimeLimit(steps, phase.max_time))
             if progress is not None:
@@ -180,11 +179,14 @@ class BenchExperiment:
         start = time.perf_counter()
         with C.showing(C.Progress(bool(progress), rest_speed=s.get("time.rest_speed"))) as shown:
             setup = self.build(s, int(seed), out_dir, bool(vtk), shown)
-            for phase in setup.phases:
-                run_phase(setup, phase)
-            if setup.watch is not None:
-                setup.watch.check()
-                setup.watch.last_frame()
+            try:
+                for phase in setup.phases:
+                    run_phase(setup, phase)
+                if setup.watch is not None:
+                    setup.watch.check()
+            finally:  # the last frame also when a phase failed: to look at what went wrong
+                if setup.watch is not None:
+                    setup.watch.last_frame()
             out = self.measure(setup, s, out_dir, shown)
         sim = setup.sim
         return RunResult(test=self.name, responses=out["responses"], spread=out.get("spread", {}),

@@ -211,29 +211,28 @@ def check_boxes(walls, wall_names, time, pos, diameter) -> None:
                 "box or shrink the particle.")
 
 
-def check_overlaps(spheres: Spheres, fixed_bodies, spos, rad, body, fixed,
-                   tolerance) -> None:
+def check_overlaps(present, spos, rad, body, fixed, tolerance) -> None:
     """ConfigError naming the deepest overlap, beyond ``tolerance`` of the smaller
     radius, of a new sphere (``spos``, ``rad``, owning ``body`` index to be, ``fixed``)
-    with a sphere of another particle, new or present (``spheres``; ``fixed_bodies``
-    per present body)."""
+    with a sphere of another particle, new or present (``present``: the simulation's
+    :class:`~demcal.dem.storage.State`, user order, so the message names user indices)."""
     if spos.shape[0] == 0:
         return
     from scipy.spatial import cKDTree
-    s = spheres
+    s_pos, s_rad, s_body = present.sphere_positions, present.radii, present.sphere_body
     reach = float(rad.max())
-    if s.n:
-        reach += float(s.radius.max())
+    if s_pos.shape[0]:
+        reach += float(s_rad.max())
         lo, hi = spos.min(axis=0) - reach, spos.max(axis=0) + reach
-        near = np.nonzero(np.all((s.pos >= lo) & (s.pos <= hi), axis=1))[0]
+        near = np.nonzero(np.all((s_pos >= lo) & (s_pos <= hi), axis=1))[0]
     else:
         reach *= 2.0
         near = np.zeros(0, np.int64)
     m = near.size
-    p = np.concatenate([s.pos[near], spos])
-    r = np.concatenate([s.radius[near], rad])
-    bd = np.concatenate([s.body[near], body])
-    fx = np.concatenate([fixed_bodies[s.body[near]], fixed])
+    p = np.concatenate([s_pos[near], spos])
+    r = np.concatenate([s_rad[near], rad])
+    bd = np.concatenate([s_body[near], body])
+    fx = np.concatenate([present.fixed[s_body[near]], fixed])
     ij = cKDTree(p).query_pairs(reach, output_type="ndarray")
     i, j = ij[:, 0], ij[:, 1]
     sel = (np.maximum(i, j) >= m) & (bd[i] != bd[j]) & ~(fx[i] & fx[j])

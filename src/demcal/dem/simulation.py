@@ -224,13 +224,12 @@ class Simulation:
                              angular_velocities, fixed, seed, radii, rotation)
         _insertion.check_domain(b, self.domain)
         _insertion.check_boxes(self.walls, self.wall_names, self.time, b.pos, b.diameters)
-        self._view.close(self._store)
-        self._ordering.release(self._store)
         nb0 = self.n_particles
         spheres = _insertion.sphere_rows(b, nb0)
-        _insertion.check_overlaps(self._store.spheres, self._store.bodies.fixed,
-                                  spheres[0], spheres[2], spheres[3],
+        _insertion.check_overlaps(self.state, spheres[0], spheres[2], spheres[3],
                                   np.repeat(b.fixed, b.k), self.overlap_tolerance)
+        self._view.close(self._store)
+        self._ordering.release(self._store)
         try:
             tid = next(k for k, t in enumerate(self.templates) if t is b.template)
         except StopIteration:
