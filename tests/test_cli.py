@@ -135,3 +135,28 @@ def test_scheduler_help_says_what_a_cluster_needs(command):
     text = _help(command)
     assert "shared file system" in text and "same path" in text
     assert "--workers is ignored" in text
+
+
+def test_a_bug_in_demcal_is_one_sentence_and_a_traceback_file(monkeypatch, capsys):
+    """Never a raw traceback: an unexpected exception (a bug, not the user's input) is one
+    sentence naming the file the traceback went to, exit status 70 (EX_SOFTWARE)."""
+    import re
+    from pathlib import Path
+
+    import demcal.cli as cli
+
+    def broken(args):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(cli, "_check_seed_and_workers", broken)
+    monkeypatch.delenv("DEMCAL_DEBUG", raising=False)
+    assert cli.main(["bench", "--list"]) == cli.INTERNAL_ERROR_STATUS == 70
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert err.startswith("demcal: internal error: RuntimeError: boom; this is a bug in demcal")
+    path = Path(re.search(r"the traceback is in (\S+)\)", err).group(1))
+    assert "RuntimeError: boom" in path.read_text() and "Traceback" in path.read_text()
+    path.unlink()
+    monkeypatch.setenv("DEMCAL_DEBUG", "1")
+    with pytest.raises(RuntimeError, match="boom"):
+        cli.main(["bench", "--list"])

@@ -76,6 +76,33 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("demcal: interrupted; finished results are kept.", file=sys.stderr)
         return 130
+    except Exception as exc:  # a bug in demcal, not the user's input
+        if os.environ.get("DEMCAL_DEBUG"):
+            raise
+        return _internal_error(exc)
+
+
+#: Exit status of a command that stopped on a bug in demcal (BSD's EX_SOFTWARE).
+INTERNAL_ERROR_STATUS = 70
+
+
+def _internal_error(exc: BaseException) -> int:
+    """One sentence for a bug in demcal; the traceback goes to a file, not the screen."""
+    import tempfile
+    import traceback
+
+    where = ""
+    try:
+        fd, path = tempfile.mkstemp(prefix="demcal-traceback-", suffix=".txt")
+        with os.fdopen(fd, "w") as f:
+            f.write("".join(traceback.format_exception(exc)))
+        where = f" (the traceback is in {path})"
+    except OSError:
+        pass
+    print(f"demcal: internal error: {type(exc).__name__}: {exc}; this is a bug in demcal, not in "
+          f"your input{where}: please report it with the command you ran. Finished results are kept; "
+          "set DEMCAL_DEBUG=1 to see the traceback here.", file=sys.stderr)
+    return INTERNAL_ERROR_STATUS
 
 
 #: Exit status of a command whose reader went away (`demcal ... | head`), as if killed by SIGPIPE.
