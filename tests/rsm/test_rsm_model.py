@@ -256,7 +256,12 @@ def test_analyze_fit_summary_errors(monkeypatch, capsys):
         raise ZeroDivisionError("a bug")
 
     monkeypatch.setattr(summary, "fit_summary", broken)
-    with pytest.raises(ZeroDivisionError):  # a real failure is not hidden
+    # a real failure is not hidden: not a warning and a result, but demcal's bug sentence
+    monkeypatch.delenv("DEMCAL_DEBUG", raising=False)
+    assert main(["analyze", TABLE4, "--response", "repose_angle_deg"]) == 70
+    assert "demcal: internal error: ZeroDivisionError: a bug" in capsys.readouterr().err
+    monkeypatch.setenv("DEMCAL_DEBUG", "1")
+    with pytest.raises(ZeroDivisionError):
         main(["analyze", TABLE4, "--response", "repose_angle_deg"])
 
 
