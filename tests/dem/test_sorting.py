@@ -178,3 +178,24 @@ def test_a_refused_add_keeps_the_state_and_names_user_indices(backend):
     assert sim.state is st and st.velocities.flags.writeable   # nothing changed: the same state
     sim.run(steps=1)
     assert sim.state.velocities[3, 0] == pytest.approx(0.1, abs=0.01)   # the write was taken
+
+
+@pytest.mark.parametrize("change", ["remove", "add"])
+def test_contacts_right_after_a_change_of_the_particles_name_user_indices(backend, change):
+    # the lists are rebuilt at the next step; until then contacts() renumbers them
+    sim = _sorting(pour(backend, 300, 0.03))
+    sim.run(duration=0.25)
+    assert not np.array_equal(sim.engine_order, np.arange(300))
+    before = len(sim.contacts()[0])
+    if change == "remove":
+        sim.remove_particles([0, 5, 17])
+    else:
+        top = sim.state.positions[:, 2].max() + 0.02
+        sim.add_particles(radii=0.002, positions=[[0.0, 0.0, top]])
+    st = sim.state
+    i, j, _ = sim.contacts()
+    gap = (np.linalg.norm(st.sphere_positions[i] - st.sphere_positions[j], axis=1)
+           - st.radii[i] - st.radii[j])
+    assert len(i) > 0.9 * before and np.all(gap < 0)   # the same touching pairs, user indices
+    sim.run(steps=1)
+    assert abs(len(sim.contacts()[0]) - len(i)) <= 0.1 * len(i)

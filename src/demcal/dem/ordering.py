@@ -57,10 +57,6 @@ class Ordering:
         return n_spheres >= threshold and (self.last_sort is None
                                            or step - self.last_sort >= interval)
 
-    def user_spheres(self, i):
-        """User indices of engine sphere indices ``i`` (while the engine order holds)."""
-        return i if self.perm is None else self.perm[1][i]
-
     def user_index(self):
         """``(bodies, spheres)``: the engine index of each user index, or None while the
         arrays are in user order."""
@@ -220,10 +216,22 @@ class UserView:
                 getattr(state, name).flags.writeable = False
 
     def contacts(self, pairs):
-        """``(i, j, force on i)`` of the touching pairs of a contact list (engine
-        numbering), the spheres in user order."""
+        """``(i, j, force on i)`` of the touching pairs of a contact list, the spheres in
+        user order. The list is numbered as the arrays were at its last rebuild: when
+        particles were added or removed since (``old_of_new`` pending), its spheres are
+        renumbered through that, and the pairs of removed spheres left out."""
+        o = self.ordering
         rows = np.repeat(np.arange(pairs.start.shape[0] - 1), np.diff(pairs.start))
         active = pairs.act[:pairs.size]
         i, j = rows[active], pairs.other[:pairs.size][active]
-        return (self.ordering.user_spheres(i), self.ordering.user_spheres(j),
-                pairs.out[:pairs.size][active, :3])
+        force = pairs.out[:pairs.size][active, :3]
+        if o.old_of_new is not None:
+            now_of_list = np.full(pairs.start.shape[0] - 1, -1, np.int64)
+            kept = o.old_of_new >= 0
+            now_of_list[o.old_of_new[kept]] = np.nonzero(kept)[0]
+            i, j = now_of_list[i], now_of_list[j]
+            both = (i >= 0) & (j >= 0)
+            i, j, force = i[both], j[both], force[both]
+        if o.perm is not None and not o.user_view:
+            i, j = o.perm[1][i], o.perm[1][j]
+        return i, j, force
