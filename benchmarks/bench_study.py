@@ -51,7 +51,7 @@ def _order(plan: list[dict]) -> list[tuple[dict, int]]:
     return [(c, c["seeds"][i]) for i in range(depth) for c in plan if i < len(c["seeds"])]
 
 
-def _one(case: dict, seed: int, threads: int, cache: Path | None) -> dict:
+def run_one(case: dict, seed: int, threads: int, cache: Path | None = None) -> dict:
     threads = int(case.get("threads", threads))
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
     if cache is not None:
@@ -89,7 +89,7 @@ def run(plan: list[dict], results: Path, threads: int, jobs: int = 1,
                 slot = free.pop(0)
                 case, seed = todo.pop(0)
                 cache = separate_caches / f"slot-{slot}" if separate_caches else None
-                running[pool.submit(_one, case, seed, threads, cache)] = (case, slot)
+                running[pool.submit(run_one, case, seed, threads, cache)] = (case, slot)
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
                 case, slot = running.pop(fut)

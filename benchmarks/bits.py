@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
 import sys
+
+from bench_study import run_one  # benchmarks/: the script's own folder is on sys.path
 
 #: (label, bench, profile, extra --set values)
 CONFIGS = [
@@ -36,14 +36,14 @@ CONFIGS = [
 ]
 
 
-def run(bench: str, profile: str, sets: list[str]) -> dict:
-    cmd = [sys.executable, "-m", "demcal", "bench", bench, "--profile", profile, "--seed", "1",
-           "--json"] + [a for s in sets for a in ("--set", s)]
-    env = dict(os.environ, NUMBA_NUM_THREADS="1")
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env, check=True).stdout
-    result = json.loads(out)
-    keep = {k: result[k] for k in ("responses", "spread", "particles", "steps", "simulated_s") if k in result}
-    return keep or result
+def run(label: str, bench: str, profile: str, sets: list[str]) -> dict:
+    """One configuration through the bench study's runner (its own process, one thread):
+    what determines the bits, or the error."""
+    case = {"case": label, "test": bench, "profile": profile,
+            "set": dict(item.split("=", 1) for item in sets)}
+    row = run_one(case, seed=1, threads=1)
+    keys = ("responses", "spread", "particles", "steps", "simulated_s", "error")
+    return {k: row[k] for k in keys if k in row}
 
 
 def main(argv=None) -> int:
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     for label, bench, profile, sets in CONFIGS:
         if args.only and args.only not in label:
             continue
-        figures[label] = run(bench, profile, sets)
+        figures[label] = run(label, bench, profile, sets)
         print(f"{label}: {json.dumps(figures[label].get('responses', figures[label]))}", flush=True)
     with open(args.out, "w") as f:
         json.dump(figures, f, indent=1, sort_keys=True)
