@@ -64,7 +64,7 @@ def settled(backend, rolling_model, mu_r, gravity=(0, 0, -G), mu_s=0.8):
     return sim
 
 
-@pytest.mark.parametrize("rolling_model", ["type_a", "cdt"])
+@pytest.mark.parametrize("rolling_model", ["type_a", "cdt", "rvd"])
 def test_rolling_deceleration(backend, rolling_model):
     mu_r = 0.1
     sim = settled(backend, rolling_model, mu_r)

@@ -33,6 +33,11 @@ normal from j to i, ``w_r = w_i - w_j``, ``w_t = w_r - (w_r . n) n``.
   f I_i / dt) w_i``; likewise for j, and nothing on a wall (I_j = 0). A spin above
   ``mu_r Fn R_i dt / (f I_i)`` (0.04 rad/s for i here) feels type A's torque bit for
   bit; one below it a viscous torque ``-f I_i w_i / dt``.
+* ``rvd``, EDEM's RVD rolling friction (EDEM Creator help, "RVD Rolling Friction
+  Model"): ``tau_i = -mu_r Fn R* w^_rel``, ``tau_j = tau_i``, ``w^_rel = n_ij x v_t /
+  |v_t|`` with ``v_t = 1/2 (w_i + w_j) x r_ij`` (pair) or ``R_i w_i x n_ij`` (geometry),
+  i.e. the unit tangential part of ``w_i + w_j`` (of ``w_i`` on a wall); Fn as type A's,
+  the lever R* for a pair and R_i on a wall.
 
 The pair and the floor below were also run in LIGGGHTS-PUBLIC 3.8.0 (Debian
 3.8.0+repack1, ``liggghts -in``), same numbers, ``run 0`` and a dump of the torques::
@@ -237,24 +242,82 @@ def test_cdt_wall_lever_is_the_sphere_radius():
     assert t == pytest.approx(LIGGGHTS_FLOOR, rel=1e-12, abs=1e-15 * abs(expected).max())
 
 
-def test_cdt_does_not_see_a_wall_spin():
-    """A sphere in a drum turning about its own axis: the drum's spin lies in the contact
-    plane, yet LIGGGHTS' cdt forms the torque from the particle's spin alone."""
+DRUM_SPIN = np.array([5.0, 3.0, 2.0])
+
+
+def in_drum(rolling):
+    """Torque on a fixed sphere (spin ``DRUM_SPIN``) lying on the inside of a drum that
+    turns about its own axis x at 10 rad/s: the drum's spin lies in the contact plane."""
     r_drum = 0.02
     drum = WallSet([Cylinder(base=(-0.05, 0, 0), axis=(1, 0, 0), radius=r_drum, length=0.1,
                              material=1, name="drum",
                              motion=Rotation(point=(0, 0, 0), axis=(1, 0, 0),
                                              angular_speed=10.0))])
     sim = Simulation([SOFT, SOFT_WALL], INTER, walls=drum, gravity=(0, 0, 0), dt=1e-7,
-                     rolling_model="cdt")
-    w = np.array([5.0, 3.0, 2.0])
-    sim.add_particles(R_I, [[0.0, 0.0, -(r_drum - R_I + DELTA)]], angular_velocities=[w],
-                      fixed=True)
+                     rolling_model=rolling)
+    sim.add_particles(R_I, [[0.0, 0.0, -(r_drum - R_I + DELTA)]],
+                      angular_velocities=[DRUM_SPIN], fixed=True)
     sim.run(steps=1)
+    return sim.state.torques[0].copy()
+
+
+def test_cdt_does_not_see_a_wall_spin():
+    """LIGGGHTS' cdt forms the torque from the particle's spin alone."""
+    w = DRUM_SPIN
     fe, _ = hertz(R_I, DELTA)
     expected = -MU_R * fe * R_I * np.array([w[0], w[1], 0.0]) / np.linalg.norm(w)
-    t = sim.state.torques[0]
+    t = in_drum("cdt")
     assert t == pytest.approx(expected, rel=REL, abs=1e-15 * abs(expected).max())
+
+
+def rvd_expected(fn, r_eff, a):
+    """EDEM's RVD torque on i from the spins' sum ``a``, computed as the page writes
+    it: n x v_t / |v_t| with v_t = 1/2 a x r_ij (r_ij along the normal)."""
+    r_ij = -(R_I + R_J - DELTA) * N          # from i's centre to j's
+    v_t = 0.5 * np.cross(a, r_ij)
+    n_ij = -N                                 # from i towards the contact point
+    w_rel = np.cross(n_ij, v_t) / np.linalg.norm(v_t)
+    return -MU_R * fn * r_eff * w_rel
+
+
+def test_rvd_pair_torque_is_the_same_on_both_sides():
+    fn = type_a_fn()
+    r_eff = R_I * R_J / (R_I + R_J)
+    ti, tj, _ = pair("rvd", APPROACH)
+    expected = rvd_expected(fn, r_eff, W_I + W_J)
+    assert ti == pytest.approx(expected, rel=REL)
+    assert tj == pytest.approx(expected, rel=REL)
+    # the page's unit vector is the tangential part of w_i + w_j, made unit
+    a_t = tangential(W_I + W_J)
+    assert expected == pytest.approx(-MU_R * fn * r_eff * a_t / np.linalg.norm(a_t), rel=1e-12)
+
+
+def test_rvd_gears_and_twisting_give_no_torque():
+    """Spheres rolling on each other like gears (w_j = -w_i: the surfaces do not slip)
+    or twisting about the normal feel no RVD torque; co-rotating ones do."""
+    scale = hertz(R_I, DELTA)[0] * R_I
+    for w_j in (-W_I, -W_I + 25.0 * N):
+        ti, tj, _ = pair("rvd", APPROACH, w_i=W_I, w_j=w_j)
+        assert np.abs(ti).max() < 1e-12 * scale and np.abs(tj).max() < 1e-12 * scale
+    ti, _, _ = pair("rvd", APPROACH, w_i=W_I, w_j=W_I)
+    assert np.linalg.norm(ti) == pytest.approx(MU_R * type_a_fn() * R_I * R_J / (R_I + R_J),
+                                               rel=REL)
+
+
+def test_rvd_on_a_wall_takes_the_particle_spin_and_its_radius():
+    """Particle-geometry: v_t = R_i w_i x n_ij, the lever the sphere radius; a turning
+    drum's spin is not seen (the page's v_t has no wall term)."""
+    w = np.array([20.0, -30.0, 40.0])
+    fe, sn = hertz(R_I, DELTA)
+    fn = fe + 2.0 * math.sqrt(5.0 / 6.0) * BETA * math.sqrt(sn * mass(R_I)) * -0.02
+    expected = -MU_R * fn * R_I * np.array([w[0], w[1], 0.0]) / np.linalg.norm(w[:2])
+    t = on_floor("rvd")
+    assert t == pytest.approx(expected, rel=REL, abs=1e-15 * abs(expected).max())
+    w = DRUM_SPIN
+    t = in_drum("rvd")
+    assert t[2] == pytest.approx(0.0, abs=1e-15)
+    assert t[:2] / np.linalg.norm(t[:2]) == pytest.approx(-w[:2] / np.linalg.norm(w[:2]),
+                                                          rel=1e-12)
 
 
 def test_cdt_hysteretic_spring_takes_k1_delta():

@@ -46,7 +46,9 @@ directional torque on each body's own spin; the default), ``"cdt"`` (LIGGGHTS-PU
 without its twisting part, lever R* and R against a wall), ``"type_c"``
 (elastic-plastic spring-dashpot, Ai et al. 2011 model C), ``"type_a_limited"`` (type A
 with a moment limiter: at most 0.08 of the torque that stops the spin in one step, the
-form STAR-CCM+ documents for its constant torque method). A ``ContactModel`` carries
+form STAR-CCM+ documents for its constant torque method), ``"rvd"`` (EDEM's RVD rolling
+friction: the same torque on both sides, against the tangential part of w_i + w_j). A
+``ContactModel`` carries
 its own ``rolling``; a ``rolling_model`` that differs from it is refused (name the
 rolling model once). Equations and sources are in :mod:`demcal.dem.contact` and
 docs/dem.md.

@@ -36,7 +36,7 @@ from .contact.kernel import contact, reset_history, store_history
 from .contact.llvm_math import sqrt
 from .contact.normal import reach
 from .contact.registry import (H_FLAG, HIST_WIDTH, LOOP_FASTMATH, ROLLING_CONSTANT,
-                               ROLLING_EPSD, ROLLING_LIMITED, ROLLING_RELATIVE)
+                               ROLLING_EPSD, ROLLING_LIMITED, ROLLING_RELATIVE, ROLLING_RVD)
 
 ACC_WIDTH = 6        # sacc columns: force on the sphere (3), torque on its body (3)
 PAIR_OUT_WIDTH = 3   # pair_out columns: force on i
@@ -276,11 +276,12 @@ def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 wix, wiy, wiz, mi, biso[bi], wvel[w, 0], wvel[w, 1], wvel[w, 2],
                 womega[w, 0], womega[w, 1], womega[w, 2], 0.0, 0.0)
             # the wall's spin as the rolling model sees it: none for cdt, which takes
-            # the particle's own angular velocity against a wall (as LIGGGHTS does)
+            # the particle's own angular velocity against a wall (as LIGGGHTS does), nor
+            # for rvd (EDEM's particle-geometry v_t is R_i w_i x n_ij)
             wwx = womega[w, 0]
             wwy = womega[w, 1]
             wwz = womega[w, 2]
-            if rolling == ROLLING_RELATIVE:
+            if rolling == ROLLING_RELATIVE or rolling == ROLLING_RVD:
                 wwx = 0.0
                 wwy = 0.0
                 wwz = 0.0

@@ -66,7 +66,7 @@ class Simulation:
         :meth:`add_particles`; above it the run raises :class:`ConfigError`.
     contact_model : {"hertz_mindlin", "hysteretic_spring", "linear"} or ContactModel
         Default ``"hertz_mindlin"`` (EDEM's Hertz-Mindlin no slip).
-    rolling_model : {"type_a", "cdt", "type_c", "type_a_limited", "none"}, optional
+    rolling_model : {"type_a", "cdt", "type_c", "type_a_limited", "rvd", "none"}, optional
         Rolling resistance. With a preset name for ``contact_model`` the default is
         ``"type_a"`` (EDEM's standard rolling friction; a constant torque that never
         lets a bed become perfectly static, see docs/dem.md: name ``"type_c"`` where a

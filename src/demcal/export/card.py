@@ -103,8 +103,9 @@ EDEM_ROLLING = {
     "cdt": ("RVD Rolling Friction", False,
             "demcal's cdt (LIGGGHTS' constant directional torque on w_i - w_j) is nearest to EDEM's "
             "RVD Rolling Friction, which also uses R* but takes its direction from the contact's "
-            "tangential velocity; recalibrate with rolling.model = type_a for EDEM"),
+            "tangential velocity; recalibrate with rolling.model = rvd (or type_a) for EDEM"),
     "type_c": ("Type C Rolling Friction", True, ""),
+    "rvd": ("RVD Rolling Friction", True, ""),
     "type_a_limited": ("Standard Rolling Friction", False,
                        "demcal's type_a_limited caps EDEM's standard rolling torque at 0.08 of the "
                        "moment that stops the particle's spin in one time step (the moment limiter "
@@ -148,6 +149,11 @@ LIGGGHTS_ROLLING = {
                "Hertz stiffness 4/3 E* sqrt(R* delta) where demcal takes the tangent one, "
                "2 E* sqrt(R* delta), so its rolling spring is 2/3 as stiff (the torque limit "
                "mu_r R* Fn is the same); recalibrate in LIGGGHTS or accept the stiffer spring"),
+    "rvd": ("cdt", False,
+            "demcal's rvd (EDEM's RVD rolling friction: the same torque on both particles, against "
+            "the tangential part of w_i + w_j, from the total normal force) is not LIGGGHTS' cdt "
+            "(opposite torques along w_i - w_j, from the elastic force k_n delta); recalibrate with "
+            "rolling.model = cdt"),
     "type_a_limited": ("cdt", False,
                        "demcal's type_a_limited (EDEM's standard rolling friction on the particle's "
                        "own spin, with a moment limiter) is neither LIGGGHTS' cdt (relative spin, "

@@ -20,7 +20,7 @@ from .damping import (DAMPING_HYSTERETIC, DAMPING_NONE, DAMPING_TSUJI,  # noqa: 
 from .declare import FASTMATH, LOOP_FASTMATH, SLOTS, SubModel  # noqa: F401
 from .normal import NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR  # noqa: F401
 from .rolling import (ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_LIMITED,  # noqa: F401
-                      ROLLING_NONE, ROLLING_RELATIVE)
+                      ROLLING_NONE, ROLLING_RELATIVE, ROLLING_RVD)
 from .tangential import TANGENTIAL_LINEAR, TANGENTIAL_MINDLIN, TANGENTIAL_NONE  # noqa: F401
 
 #: every sub-model, by slot, in id order
@@ -112,7 +112,7 @@ class ContactModel:
     damping : {"tsuji", "hysteretic", "viscous", "none"}
     tangential : {"mindlin", "linear", "none"}
     rolling : {"none", "type_a" (= "constant"), "cdt" (= "relative"), "type_c" (= "epsd"),
-               "type_a_limited" (= "constant_limited")}
+               "type_a_limited" (= "constant_limited"), "rvd"}
 
     Each slot's names are those its module declares (``registry.SUBMODELS``).
     """

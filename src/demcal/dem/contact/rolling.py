@@ -43,6 +43,17 @@ against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
   rolls faster than ``mu_r Fn R_i dt / (f I_i)`` feels type A's torque unchanged.
   With ``f`` = 0.08 a particle needs more than twelve such contacts to have its spin
   reversed in one step.
+* ``rvd`` (EDEM Creator help, "RVD Rolling Friction Model", after Zhou et al. 1999; a 3D
+  form of Ai et al.'s type A): ``tau_i = -mu_r Fn R* w^_rel`` and ``tau_j = tau_i`` (the
+  page's equation, the same torque on both sides, not a reaction), with
+  ``w^_rel = n_ij x v_t/|v_t|`` and ``v_t = 1/2 (w_i + w_j) x r_ij`` between particles,
+  ``R_i w_i x n_ij`` against a geometry. Since ``n x (a x n)`` is ``a``'s tangential
+  part, ``w^_rel`` is the unit vector along the tangential part of ``w_i + w_j`` (of
+  ``w_i`` against a wall, whose spin the page leaves out): the torque opposes the
+  spins' common rolling and vanishes for two spheres that roll on each other like
+  gears (``w_i = -w_j``), where the surfaces do not slip. The page names neither the
+  normal force (demcal: as type A, spring + damping clipped at 0) nor R* against a
+  geometry (demcal: the sphere radius, R* with an infinite wall radius).
 """
 
 from numba import njit
@@ -58,9 +69,14 @@ ROLLING_CONSTANT = 1     # EDEM type A: -mu_r Fn R_i w_i/|w_i|
 ROLLING_RELATIVE = 2     # LIGGGHTS 3.8 cdt: -mu_r k_n delta R* w_t/|w_r|
 ROLLING_EPSD = 3         # EDEM type C, Ai et al. 2011
 ROLLING_LIMITED = 4      # type A with a moment limiter (STAR-CCM+'s constant torque form)
+ROLLING_RVD = 5          # EDEM RVD: -mu_r Fn R* unit((w_i + w_j)_t) on both sides
 
 #: the moment limiter's factor: STAR-CCM+'s default "Moment Limiter Factor" (0.08)
 MOMENT_LIMITER = 0.08
+
+#: rvd: the tangential part of w_i + w_j counts as none below this share of |w_i + w_j|^2
+#: (1e-12 of the length: rounding, not rolling)
+RVD_ROUNDING = 1e-24
 
 #: the rolling spring torque [N m] on side i (type C)
 ROLLING_SPRING_TORQUE = HistoryField("rolling_spring_torque", "N m", vector=True)
@@ -81,6 +97,8 @@ MODELS = (
              coefficients=(ROLLING_FRICTION,),
              source="EDEM standard rolling friction with the moment limiter of Simcenter "
                     "STAR-CCM+'s Constant Torque method (factor 0.08)"),
+    SubModel("rolling", "rvd", ROLLING_RVD, coefficients=(ROLLING_FRICTION,),
+             source="EDEM Creator help, RVD Rolling Friction Model (after Zhou et al. 1999)"),
 )
 
 
@@ -178,4 +196,27 @@ def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
         tjx = -tix
         tjy = -tiy
         tjz = -tiz
+    elif model == ROLLING_RVD:
+        # w^_rel = n x (1/2 (w_i + w_j) x r_ij)/|..| is the unit tangential part of
+        # w_i + w_j (r_ij along n; its sign and length drop out); wj is 0 against a wall
+        ax = wix + wjx
+        ay = wiy + wjy
+        az = wiz + wjz
+        a2 = ax * ax + ay * ay + az * az
+        an = ax * nx + ay * ny + az * nz
+        ax -= an * nx
+        ay -= an * ny
+        az -= an * nz
+        at2 = ax * ax + ay * ay + az * az
+        # a spin about the normal alone leaves a rounding residue of ~1e-16 |a| in the
+        # tangent plane, whose unit vector would be a full torque in a random direction
+        if at2 > RVD_ROUNDING * a2:
+            at = sqrt(at2)
+            a = -mu_r * fn * r_eff / at
+            tix = a * ax
+            tiy = a * ay
+            tiz = a * az
+            tjx = tix
+            tjy = tiy
+            tjz = tiz
     return tix, tiy, tiz, tjx, tjy, tjz, mx, my, mz
