@@ -188,10 +188,10 @@ def test_film_interaction_and_fixed_settings(sliding, capsys):
 
 
 def test_every_rolling_model_has_a_row_for_each_code():
-    """A rolling sub-model added to the engine (type_a_limited the latest) must say what it
+    """A rolling sub-model added to the engine (rvd the latest) must say what it
     is in EDEM and in LIGGGHTS, and why it does not carry over where it does not."""
     names = [m.name for m in SUBMODELS["rolling"]]
-    assert "type_a_limited" in names
+    assert "type_a_limited" in names and "rvd" in names
     for table in (EDEM_ROLLING, LIGGGHTS_ROLLING):
         assert sorted(table) == sorted(names)
         for name, (code_name, transferable, why) in table.items():

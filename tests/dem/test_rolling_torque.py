@@ -287,9 +287,11 @@ def test_rvd_pair_torque_is_the_same_on_both_sides():
     expected = rvd_expected(fn, r_eff, W_I + W_J)
     assert ti == pytest.approx(expected, rel=REL)
     assert tj == pytest.approx(expected, rel=REL)
-    # the page's unit vector is the tangential part of w_i + w_j, made unit
+    # the page's unit vector is the tangential part of w_i + w_j, made unit; the twist
+    # it drops is most of w_i + w_j here, so keeping it would fail the checks above
     a_t = tangential(W_I + W_J)
-    assert expected == pytest.approx(-MU_R * fn * r_eff * a_t / np.linalg.norm(a_t), rel=1e-12)
+    assert ti == pytest.approx(-MU_R * fn * r_eff * a_t / np.linalg.norm(a_t), rel=REL)
+    assert np.linalg.norm(a_t) < 0.5 * np.linalg.norm(W_I + W_J)
 
 
 def test_rvd_gears_and_twisting_give_no_torque():

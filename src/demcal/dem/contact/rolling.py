@@ -53,7 +53,9 @@ against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
   spins' common rolling and vanishes for two spheres that roll on each other like
   gears (``w_i = -w_j``), where the surfaces do not slip. The page names neither the
   normal force (demcal: as type A, spring + damping clipped at 0) nor R* against a
-  geometry (demcal: the sphere radius, R* with an infinite wall radius).
+  geometry (demcal: the sphere radius, R* with an infinite wall radius). The torque a
+  wall reports (``sim.wall_forces``) is, as for every model, the reaction -tau_i; EDEM
+  leaves rolling torque out of its geometry torque by default.
 """
 
 from numba import njit
@@ -197,8 +199,9 @@ def rolling_torque(model, mx, my, mz, nx, ny, nz, wix, wiy, wiz, wjx, wjy, wjz,
         tjy = -tiy
         tjz = -tiz
     elif model == ROLLING_RVD:
-        # w^_rel = n x (1/2 (w_i + w_j) x r_ij)/|..| is the unit tangential part of
-        # w_i + w_j (r_ij along n; its sign and length drop out); wj is 0 against a wall
+        # w^_rel = n_ij x (1/2 (w_i + w_j) x r_ij)/|..| with n_ij and r_ij both from i
+        # towards j (r_ij = |r_ij| n_ij, so only its length drops out) is the unit
+        # tangential part of w_i + w_j, whichever way n points; wj is 0 against a wall
         ax = wix + wjx
         ay = wiy + wjy
         az = wiz + wjz
