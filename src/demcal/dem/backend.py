@@ -7,7 +7,7 @@ walls, reporters). ``cpu`` (numba on the host's cores) is the only backend today
 anything else in the process touches the device or its threads) and
 ``default_threads()``:
 
-* ``forces(models, table, dt, gravity, store, walls, kick)``: contact forces of the
+* ``forces(chosen, table, dt, gravity, store, walls, kick)``: contact forces of the
   pair and wall lists, then the per-body sums and (``kick``) the half kick;
 * ``drift(dt, store)``: one drift, returning the largest sphere move since the last
   neighbour build [m];
@@ -106,11 +106,11 @@ class CpuBackend:
                                   deferred_start, np.zeros((slot.shape[0], HIST_WIDTH)))
         return self.halo
 
-    def forces(self, models, table, dt, gravity, store: Store, walls, kick) -> None:
+    def forces(self, chosen, table, dt, gravity, store: Store, walls, kick) -> None:
         b, s, p, q = store.bodies, store.spheres, store.pairs, store.walls
         nb, ns = b.n, s.n
         if ns:
-            args = (models, table, dt, s.pos, s.radius, s.body, b.pos, b.vel, b.omega,
+            args = (chosen, table, dt, s.pos, s.radius, s.body, b.pos, b.vel, b.omega,
                     b.mass, b.iso, b.mat, p.start, p.other, p.hist, p.out, p.act, s.acc)
             if self.split(nb):
                 h = self.halo_index(store)
@@ -124,7 +124,7 @@ class CpuBackend:
             else:
                 _forces.pair_forces(*args, _NO_HALO, _NO_HALO, _NO_HALO, 0, 0,
                                     _NO_DEFERRED, 0, 0, ns)
-            self.map_range(nb, _forces.wall_forces, ns, models, table, dt, s.pos,
+            self.map_range(nb, _forces.wall_forces, ns, chosen, table, dt, s.pos,
                            s.radius, s.body, b.pos, b.vel, b.omega, b.mass, b.iso, b.mat,
                            q.start, q.other, q.hist, q.out, q.act, s.acc, walls.kind,
                            walls.params, walls.velocity, walls.omega, walls.origin,

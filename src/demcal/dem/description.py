@@ -19,6 +19,7 @@ from demcal.particles.materials import MaterialTable
 
 from .backend import BACKENDS
 from .checks import is_integer, is_real, positive
+from .contact.chosen import Chosen
 from .contact.registry import ContactModel
 from .contact.table import pair_table
 
@@ -27,11 +28,14 @@ from .contact.table import pair_table
 class Description:
     """A simulation's fixed description (see :class:`~demcal.dem.Simulation` for the
     meaning of each argument). ``models`` are the sub-model ids (normal, damping,
-    tangential, rolling) and ``table`` the material-pair constants the kernels read."""
+    tangential, rolling), ``chosen`` the same ids as the compiled loops take them
+    (:class:`~demcal.dem.contact.chosen.Chosen`: constants of the compiled code), and
+    ``table`` the material-pair constants the kernels read."""
 
     material_table: MaterialTable
     contact_model: ContactModel
     models: np.ndarray
+    chosen: Chosen
     table: np.ndarray
     dt: float | None
     dt_fraction: float
@@ -98,8 +102,9 @@ def describe(materials, interactions, dt=None, contact_model="hertz_mindlin",
         threads = BACKENDS[backend].default_threads()
     if not (is_integer(threads) and threads >= 1):
         raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
+    ids = model.ids()
     return Description(material_table=table, contact_model=model,
-                       models=np.array(model.ids(), dtype=np.int64),
+                       models=np.array(ids, dtype=np.int64), chosen=Chosen(ids),
                        table=np.ascontiguousarray(pair_table(table, model)),
                        dt=None if dt is None else float(dt),
                        dt_fraction=float(dt_fraction), impact_speed=impact_speed,

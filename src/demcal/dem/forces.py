@@ -2,7 +2,10 @@
 
 Only these loops iterate over contacts (over a range [lo, hi) of spheres, so the host can
 split the work between threads); each contact is evaluated by ``contact.kernel.contact``,
-which both drivers call with the same levers and slip (:func:`_relative_motion`).
+which both drivers call with the same levers and slip (:func:`_relative_motion`). Their
+first argument, ``chosen`` (:class:`~demcal.dem.contact.chosen.Chosen`), holds the
+sub-model ids in its numba type: each combination gets its own compiled loops, in which
+the ids are constants.
 
 Where the results go (every sum is taken in a fixed order, so results are bitwise
 identical for any number of threads):
@@ -70,7 +73,7 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
-def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
+def pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, row_start, nbr, hist, pair_out, active, sacc,
                 halo_row, halo_slots, halo_slot, r0, r1, deferred, k0, lo, hi):
     """Pair contacts acting on spheres [lo, hi) (one chunk of a split; [0, n) unsplit).
@@ -86,10 +89,10 @@ def pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
     chunk has read them. ``pair_out[p]`` gets the force on i of each active slot.
     ``biso[b]`` is the mean principal moment of inertia of body b (rolling inertia).
     """
-    normal = models[0]
-    damping = models[1]
-    tangential = models[2]
-    rolling = models[3]
+    normal = chosen.normal
+    damping = chosen.damping
+    tangential = chosen.tangential
+    rolling = chosen.rolling
     for i in range(lo, hi):
         for k in range(ACC_WIDTH):
             sacc[i, k] = 0.0
@@ -229,14 +232,14 @@ def commit_deferred(hist, active, deferred, halo_slot, halo_deferred, t0, t1):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
-def wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
+def wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, wall_start, wid, whist, wall_out, wactive, sacc,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):
     """Wall contacts of spheres [lo, hi); adds to ``sacc`` (after :func:`pair_forces`)."""
-    normal = models[0]
-    damping = models[1]
-    tangential = models[2]
-    rolling = models[3]
+    normal = chosen.normal
+    damping = chosen.damping
+    tangential = chosen.tangential
+    rolling = chosen.rolling
     for i in range(lo, hi):
         q0 = wall_start[i]
         q1 = wall_start[i + 1]

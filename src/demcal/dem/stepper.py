@@ -28,19 +28,21 @@ from numba import njit, prange
 
 from demcal.geometry.placement import place_moving
 
+from .contact.chosen import Chosen
 from .forces import commit_deferred, pair_forces, wall_forces
 from .integrator import drift, gather_kick
 
 
 class StepParams(NamedTuple):
     """The scalars and constants of one compiled call: time step [s], time [s], gravity
-    [m/s2], sub-model ids, pair table, half the skin [m], the walls' travel since the
+    [m/s2], the chosen sub-models (:class:`~demcal.dem.contact.chosen.Chosen`, whose ids
+    the loop is compiled for), pair table, half the skin [m], the walls' travel since the
     last build [m] and its bound per step [m]."""
 
     dt: float
     time: float
     gravity: np.ndarray
-    models: np.ndarray
+    chosen: Chosen
     table: np.ndarray
     half_skin: float
     travel: float
@@ -80,7 +82,7 @@ def run_steps(nsteps, params, bodies, spheres, pairs, wcontacts, walls, motions)
     the host rebuilds the lists, then evaluates forces and kicks.
     """
     b, s, p, q, w, m = bodies, spheres, pairs, wcontacts, walls, motions
-    return _run_steps(nsteps, params.dt, params.time, params.gravity, params.models,
+    return _run_steps(nsteps, params.dt, params.time, params.gravity, params.chosen,
                       params.table, params.half_skin, params.travel,
                       params.travel_per_step, b.pos, b.vel, b.quat, b.angmom, b.omega,
                       b.force, b.torque, b.mass, b.inertia, b.iso, b.mat, b.fixed,
@@ -102,7 +104,7 @@ def run_steps_split(nsteps, params, bodies, spheres, pairs, wcontacts, walls, mo
     one by one: numba's parallel lowering is fastest with plain array arguments."""
     b, s, p, q, w, m, h = bodies, spheres, pairs, wcontacts, walls, motions, halo
     return _run_steps_split(nsteps, h.chunks, params.dt, params.time, params.gravity,
-                            params.models, params.table, params.half_skin, params.travel,
+                            params.chosen, params.table, params.half_skin, params.travel,
                             params.travel_per_step, b.pos, b.vel, b.quat, b.angmom,
                             b.omega, b.force, b.torque, b.mass, b.inertia, b.iso, b.mat,
                             b.fixed, b.start, s.body, s.offset, s.radius, s.pos, s.ref,
@@ -116,7 +118,7 @@ def run_steps_split(nsteps, params, bodies, spheres, pairs, wcontacts, walls, mo
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, travel_per_step,
+def _run_steps(nsteps, dt, time, gravity, chosen, table, half_skin, travel, travel_per_step,
               bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia, biso,
               bmat, bfixed, bstart,
               sbody, soffset, srad, spos, sref, sdsq, sacc,
@@ -147,10 +149,10 @@ def _run_steps(nsteps, dt, time, gravity, models, table, half_skin, travel, trav
             return k + 1, True, time, travel
         place_moving(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params,
                      ref_origin, wkind, wparams, worigin, wvel, womega)
-        pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+        pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
                     bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, none, none, none, 0,
                     0, no_deferred, 0, 0, ns)
-        wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+        wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
                     bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind, wparams, wvel,
                     womega, worigin, wmat, 0, ns)
         gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
@@ -169,7 +171,7 @@ def _largest(mxs):
 
 
 @njit(cache=True, nogil=True, parallel=True, error_model="numpy")
-def _run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin, travel,
+def _run_steps_split(nsteps, chunks, dt, time, gravity, chosen, table, half_skin, travel,
                     travel_per_step,
                     bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
                     biso, bmat, bfixed, bstart,
@@ -204,7 +206,7 @@ def _run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin
         place_moving(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params,
                      ref_origin, wkind, wparams, worigin, wvel, womega)
         for c in prange(nchunks):
-            pair_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
+            pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, halo_row,
                         halo_slots, halo_slot, halo_rows[c], halo_rows[c + 1], deferred,
                         deferred_start[c], bstart[chunks[c]], bstart[chunks[c + 1]])
@@ -216,7 +218,7 @@ def _run_steps_split(nsteps, chunks, dt, time, gravity, models, table, half_skin
             s1 = bstart[b1]
             commit_deferred(p_hist, p_act, deferred, halo_slot, halo_deferred,
                             halo_slots[halo_rows[c]], halo_slots[halo_rows[c + 1]])
-            wall_forces(models, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
+            wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         biso, bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind,
                         wparams, wvel, womega, worigin, wmat, s0, s1)
             gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,

@@ -51,7 +51,7 @@ def rebuild(sim) -> None:
 def forces(sim, kick: bool) -> None:
     """Evaluate the forces (and, with ``kick``, the closing half kick)."""
     d = sim.description
-    sim._backend.forces(d.models, d.table, sim.dt, sim.gravity, sim._store,
+    sim._backend.forces(d.chosen, d.table, sim.dt, sim.gravity, sim._store,
                         sim._walls.rows, kick)
     sim._forces_valid = True
 
@@ -114,7 +114,7 @@ def advance(sim, nsteps: int) -> None:
         if per_step is None:
             per_step = walls.speed(store.spheres.pos, sim.skin, moves) * dt
         d = sim.description
-        params = StepParams(dt, sim.time, sim.gravity, d.models, d.table, half_skin,
+        params = StepParams(dt, sim.time, sim.gravity, d.chosen, d.table, half_skin,
                             sim._wall_travel, per_step)
         k, again, sim.time, sim._wall_travel = sim._backend.steps(
             nsteps - done, params, store, walls.rows, moves)
