@@ -55,7 +55,8 @@ def _cache_dirs():
 
 
 #: Said once per process when numba compiles (rather than loads) an engine function.
-COMPILING = "demcal: compiling the engine (first run only, about 20 s)"
+COMPILING = ("demcal: compiling the engine for this contact model (once per machine, "
+             "under a minute)")
 _announced = False
 _listening = False
 
