@@ -27,14 +27,14 @@ from .contact.table import pair_table
 @dataclass(frozen=True)
 class Description:
     """A simulation's fixed description (see :class:`~demcal.dem.Simulation` for the
-    meaning of each argument). ``models`` are the sub-model ids (normal, damping,
-    tangential, rolling), ``chosen`` the same ids as the compiled loops take them
-    (:class:`~demcal.dem.contact.chosen.Chosen`: constants of the compiled code), and
-    ``table`` the material-pair constants the kernels read."""
+    meaning of each argument). ``chosen`` holds the sub-model ids (normal, damping,
+    tangential, rolling) as the compiled loops take them
+    (:class:`~demcal.dem.contact.chosen.Chosen`: constants of the compiled code),
+    :attr:`models` the same ids as an array, and ``table`` the material-pair constants
+    the kernels read."""
 
     material_table: MaterialTable
     contact_model: ContactModel
-    models: np.ndarray
     chosen: Chosen
     table: np.ndarray
     dt: float | None
@@ -44,6 +44,12 @@ class Description:
     domain: tuple | None
     threads: int
     backend: str
+
+    @property
+    def models(self) -> np.ndarray:
+        """The sub-model ids (normal, damping, tangential, rolling) as int64 (checkpoints,
+        the host's time-step and reach rules)."""
+        return np.array(self.chosen.ids, dtype=np.int64)
 
     @property
     def materials(self):
@@ -102,9 +108,7 @@ def describe(materials, interactions, dt=None, contact_model="hertz_mindlin",
         threads = BACKENDS[backend].default_threads()
     if not (is_integer(threads) and threads >= 1):
         raise ConfigError(f"threads must be a positive integer, got {threads!r}.")
-    ids = model.ids()
-    return Description(material_table=table, contact_model=model,
-                       models=np.array(ids, dtype=np.int64), chosen=Chosen(ids),
+    return Description(material_table=table, contact_model=model, chosen=Chosen(model.ids()),
                        table=np.ascontiguousarray(pair_table(table, model)),
                        dt=None if dt is None else float(dt),
                        dt_fraction=float(dt_fraction), impact_speed=impact_speed,
