@@ -131,6 +131,10 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                    "campaign's profile. `--production` overrides it.",
     ("calibration", "replicates"): "first production replicates at a point; default "
                                    "`[verification] replicates`.",
+    ("calibration", "min_replicates"): "fewest first replicates at a new point once the production "
+                                       "noise is known (default 1): the first batch is the fewest seeds "
+                                       "whose 95 % half-width with the pooled sd is below the lab sd, "
+                                       "between this and `replicates`.",
     ("calibration", "max_replicates"): "most production replicates at one point (default 10, "
                                        "at least 2 and at least the first replicates).",
     ("calibration", "iterations"): "re-solves on the corrected surface per condition (default 4).",

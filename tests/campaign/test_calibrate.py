@@ -58,13 +58,18 @@ def test_targets_solved_and_verified_inside_the_lab_spread(calibrated):
     for result in cal.conditions[:2]:
         (verdict,) = result.verdicts
         assert verdict.predicted == pytest.approx(verdict.target, abs=0.1)  # parameters rounded to 3 digits
-        assert len(verdict.simulated) in (2, 3) and verdict.within_lab_sd is True  # 3: interval too wide at 2
+        assert verdict.within_lab_sd is True
         assert verdict.relative_error_percent == pytest.approx(
             100 * abs(np.mean(verdict.simulated) - verdict.target) / verdict.target)
         for parameter, (lo, hi) in result.factor_ranges.items():
             assert lo - 1e-9 <= result.chosen[parameter] <= hi + 1e-9
         assert result.desirability >= 0.99
     assert all(r.status == "done" for c in cal.conditions for r in c.verification)
+    # the first condition's point: [verification] replicates = 2 at an unknown noise (3 where
+    # the pooled sd's 95 % interval was still too wide at 2); the second's: the noise is
+    # known by then (sd 0.3 against a lab sd of 2.2), so one run decides it
+    first, second = (len(c.verdicts[0].simulated) for c in cal.conditions[:2])
+    assert first in (2, 3) and second == 1
 
 
 def test_unreachable_target_is_said_plainly(calibrated):
@@ -88,9 +93,10 @@ def test_calibration_json_and_no_rerun(calibrated, tmp_path, monkeypatch):
     again = calibrate(campaign, simulate=False, progress=False)
     assert [c.chosen for c in again.conditions] == [c.chosen for c in cal.conditions]
     with Store(campaign.store_path, readonly=True) as store:
-        # two replicates first; a third where the pooled sd's 95 % interval was still too wide
+        # two replicates first (a third where the pooled sd's 95 % interval was still too
+        # wide); the second condition's first batch follows the pooled noise: one run
         production = [len(c.verification) for c in cal.conditions]
-        assert production[:2] in ([2, 2], [3, 2], [2, 3], [3, 3]) and production[2] == 0
+        assert production[0] in (2, 3) and production[1:] == [1, 0]
         assert store.counts()["done"] == 29 + sum(production)
         finished = {r.key: r.finished_at for r in store.records()}
     # calibrating again with simulation on runs nothing: the verification runs are done.
@@ -287,7 +293,7 @@ def test_prediction_intervals_of_the_verification_runs(calibrated, report_path):
         half = stats.t.ppf(0.975, model.df_residual) * np.sqrt(model.mse + model.prediction_se(point)[0] ** 2)
         assert v.interval == pytest.approx((v.predicted - half, v.predicted + half), rel=1e-9)
         inside = [v.interval[0] <= x <= v.interval[1] for x in v.simulated]
-        assert v.inside_interval == inside and len(inside) >= 2
+        assert v.inside_interval == inside and len(inside) >= 1
         outside = len(inside) - sum(inside)
         assert v.confirmation == ("confirmed" if not outside else f"not confirmed ({outside} of {len(inside)} outside)")
     assert cal.conditions[2].verdicts[0].confirmation == "not simulated yet"

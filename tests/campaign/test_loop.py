@@ -4,6 +4,7 @@ a known production response, a known bias of the cheap profile, known noise."""
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -178,10 +179,41 @@ def test_budget_stops_plainly(tmp_path):
         assert len(store.records()) <= 20
 
 
+@pytest.mark.parametrize("least, first", [(1, 1), (2, 2)])
+def test_a_new_points_first_batch_is_what_the_pooled_noise_asks_for(tmp_path, least, first):
+    """Once the first condition's last point has two runs (noise 0.3 deg, df 1), the
+    second condition's first point needs one run against a lab sd of 5 deg (t(1) x 0.3 =
+    3.8), however many `replicates` ask for at an unknown noise; `min_replicates` holds.
+    The second condition has a fixed setting of its own: its noise is pooled with the
+    first's all the same."""
+    text = write(tmp_path, outside=34.0).read_text()
+    text = text.replace("mean = 34.0, sd = 1.5", "mean = 34.0, sd = 5.0")
+    text = text.replace('name = "outside"\n', 'name = "outside"\nsettings = { "test.sleep_s" = 0.001 }\n')
+    text = text.replace("box_moves = 4\n", f"box_moves = 4\nmin_replicates = {least}\n")
+    path = tmp_path / "loop.toml"
+    path.write_text(text)
+    campaign = parse_campaign(text, path)
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
+    one, two = cal.conditions
+    assert [c.loop.status for c in cal.conditions] == ["verified", "verified"], [c.loop.reason for c in cal.conditions]
+    # the first condition: a probe, then [verification] replicates = 2 at an unknown noise
+    assert [s.runs for s in one.loop.history if s.stage == "production"][:2] == [1, 2]
+    production = [s for s in two.loop.history if s.stage == "production"]
+    assert production[0].runs == first
+    # pooled with the first condition's points (its own campaign's runs alone have df 0,
+    # which would have asked for `replicates` = 2)
+    assert int(re.search(r"pooled over the production points, df (\d+)", production[0].text)[1]) >= 1
+    assert abs(production[-1].simulated - 34.0) <= 5.0
+
+
 @pytest.mark.parametrize("edit, message", [
     (("production = \"quick\"", "production = \"paper\""),
      "loop.toml line 49: 'production' = 'paper' is not known; choose one of: tiny, quick."),
     (("box_moves = 4", "box_moves = 4\n[budget]\nruns = 0"), "loop.toml line 52: 'runs' must be at least 1, got 0."),
+    (("box_moves = 4", "box_moves = 4\nmin_replicates = 3"),
+     "loop.toml line 51: 'min_replicates' (3) is above the first production replicates (2); lower it or "
+     "raise [calibration] replicates."),
     (("high = 0.5\n", "high = 0.5\nhard_high = 0.45\n"),
      "loop.toml line 20: factor 'particle.static_friction' has hard_high 0.45, which excludes part of its "
      "design box (0.3 to 0.5); hard limits must contain low and high."),

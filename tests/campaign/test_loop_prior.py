@@ -53,6 +53,35 @@ def test_replicates_needed_is_the_whole_batch_by_student_t():
     assert replicates_needed(sd=10.0, df=2, n=3, lab_sd=0.1, cap=12) == 12
 
 
+def test_a_new_point_adds_one_degree_of_freedom_less_than_its_runs():
+    from demcal.campaign.loop import replicates_needed
+
+    # pooled sd 1 with 2 df; a new point (n = 0) of m runs adds m - 1 df:
+    # m = 1: t(0.975, 2) = 4.30; m = 2: t(3) / sqrt 2 = 2.25; m = 3: t(4) / sqrt 3 = 1.61
+    assert replicates_needed(sd=1.0, df=2, n=0, lab_sd=5.0, cap=10) == 1
+    assert replicates_needed(sd=1.0, df=2, n=0, lab_sd=2.5, cap=10) == 2
+    assert replicates_needed(sd=1.0, df=2, n=0, lab_sd=2.0, cap=10) == 3
+    # at a point that has runs, each new run adds one df (as before)
+    assert replicates_needed(sd=1.0, df=2, n=1, lab_sd=2.5, cap=10) == 2
+
+
+def test_the_first_batch_at_a_new_point_follows_the_pooled_noise():
+    from demcal.campaign.config import Target
+    from demcal.campaign.loop import first_batch
+
+    lab = [Target("angle", 30.0, 2.5)]
+    assert first_batch({}, lab, 3, 1) == 3  # nothing known: [calibration] replicates
+    assert first_batch({"angle": (float("nan"), 0)}, lab, 3, 1) == 3
+    assert first_batch({"angle": (1.0, 2)}, lab, 3, 1) == 2
+    assert first_batch({"angle": (0.2, 2)}, lab, 3, 1) == 1
+    assert first_batch({"angle": (0.2, 2)}, lab, 3, 2) == 2  # min_replicates
+    assert first_batch({"angle": (9.0, 2)}, lab, 3, 1) == 3  # never more than replicates
+    assert first_batch({"angle": (0.2, 2)}, lab, 0, 1) == 0  # no verification asked for
+    # every target must be met; one without a lab sd asks for nothing
+    two = lab + [Target("other", 10.0, 0.5), Target("free", 1.0, None)]
+    assert first_batch({"angle": (0.2, 2), "other": (0.2, 2), "free": (5.0, 2)}, two, 3, 1) == 2
+
+
 def test_a_box_moves_only_when_it_misses_the_middle_half_of_the_lab_window():
     from demcal.campaign.loop import out_of_box
 

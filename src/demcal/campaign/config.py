@@ -22,8 +22,8 @@ example)::
     [[conditions]]  name, label, sample, photo, from_campaign, [conditions.targets] RESPONSE = {mean, sd},
                     [conditions.settings] KEY = VALUE, [conditions.reference] PARAMETER = VALUE
     [verification]  replicates, seed
-    [calibration]   production, replicates, max_replicates, iterations, box_moves, path_points,
-                    path_replicates (the closed loop of :mod:`demcal.campaign.loop`)
+    [calibration]   production, replicates, min_replicates, max_replicates, iterations,
+                    box_moves, path_points, path_replicates (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
@@ -85,8 +85,8 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "conditions[]": ("name", "label", "sample", "photo", "from_campaign", "targets", "settings", "reference"),
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
-    "calibration": ("production", "replicates", "max_replicates", "iterations", "box_moves", "path_points",
-                    "path_replicates"),
+    "calibration": ("production", "replicates", "min_replicates", "max_replicates", "iterations", "box_moves",
+                    "path_points", "path_replicates"),
     "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
     "report": ("title", "reference_table", "captions"),
@@ -195,6 +195,9 @@ class CalibrationConfig:
 
     production: str | None = None  #: production profile (None: the campaign's profile)
     replicates: int | None = None  #: first production replicates (None: [verification] replicates)
+    #: fewest first replicates at a point once the pooled production noise says fewer
+    #: than ``replicates`` give a 95 % interval narrower than the lab sd
+    min_replicates: int = 1
     max_replicates: int = 10  #: most production replicates at one point
     iterations: int = 4  #: re-solves on the corrected surface per condition
     box_moves: int = 3  #: most box moves per condition
@@ -963,6 +966,7 @@ class _Loader:
                                  f"'cpu_hours' must be positive, got {hours:g}; give e.g. cpu_hours = 2")
         config = CalibrationConfig(
             production=production, replicates=replicates,
+            min_replicates=self.integer(data, "min_replicates", where, 1, 1),
             max_replicates=self.integer(data, "max_replicates", where, 10, 2),
             iterations=self.integer(data, "iterations", where, 4, 1),
             box_moves=self.integer(data, "box_moves", where, 3, 0),
@@ -974,6 +978,10 @@ class _Loader:
             raise self.error(where + ("max_replicates",),
                              f"'max_replicates' ({config.max_replicates}) is below the first production "
                              f"replicates ({first}); raise it")
+        if first and config.min_replicates > first:
+            raise self.error(where + ("min_replicates",),
+                             f"'min_replicates' ({config.min_replicates}) is above the first production "
+                             f"replicates ({first}); lower it or raise [calibration] replicates")
         return config
 
     def executor(self) -> ExecutorConfig:

@@ -31,7 +31,9 @@ boxes' designs, production runs -- carries those settings:
    box is fitted with it. When the path ends at the limits without crossing, the
    condition stops: the target is out of the test's reach.
 3. **Production runs** at the solution nearest the box centre, with replicates (their
-   seed-to-seed sd, pooled over every production point, is the noise). While nothing is
+   seed-to-seed sd, pooled over every production point, is the noise; once it is known,
+   a new point's first batch is the fewest replicates it says are enough, between
+   ``min_replicates`` and ``replicates``: :func:`first_batch`). While nothing is
    known of the discrepancy (the first point of a campaign whose production profile is
    not its cheap one) a single run probes it first: if it lands outside the lab band,
    the loop re-solves with what it taught instead of replicating a point it will leave. The
@@ -56,6 +58,7 @@ without running anything.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -562,7 +565,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             predicted = {r: float(corrected[r].predict(coded)) for r in responses}
             key = tuple(sorted(chosen.items()))
             if key != point_key:
-                point_key, replicates = key, first_replicates
+                noise = production_noise(campaign, records(), production, responses)
+                point_key = key
+                replicates = first_batch(noise, condition.targets, first_replicates, cfg.min_replicates)
                 if production != cheap and not any(residuals.values()) and replicates > 1:
                     replicates = 1  # a probe: nothing is known of production - cheap yet
         hold = None
@@ -589,7 +594,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             failed = [r for r in done if r.status != "done"]
             return stop(NOT_VERIFIED, f"{len(failed)} production runs failed ({failed[0].label}: "
                         f"{failed[0].error}); rerun them with --retry-failed", **state)
-        noise = _production_noise(campaign_runs(campaign, records(), production, kinds=("verification",)), responses)
+        noise = production_noise(campaign, records(), production, responses)
         verdict = []
         for t in condition.targets:
             values = np.array([r.responses[t.response] for r in ok])
@@ -602,7 +607,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             narrow = t.sd is None or half < t.sd
             verdict.append((t, mean, half, inside, narrow, sd))
             history.append(Step(iteration, box.index, "production", new,
-                                f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %) against "
+                                f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %; seed sd "
+                                f"{sd:.2f} pooled over the production points, df {df}) against "
                                 f"{t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
                                 predicted=predicted[t.response], simulated=mean, half_width=half,
                                 discrepancy=disc[t.response].describe(), point=dict(chosen)))
@@ -634,15 +640,40 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
 
 def replicates_needed(sd: float, df: int, n: int, lab_sd: float, cap: int) -> int:
     """The fewest replicates ``m > n`` whose 95 % half-width, Student t with the pooled
-    ``df`` grown by the ``m - n`` new runs, falls below ``lab_sd`` at the current ``sd``
-    (``cap`` if none up to it does): the whole batch at once, so the runs go in parallel
-    instead of one per round."""
+    ``df`` grown by the new runs, falls below ``lab_sd`` at the current ``sd`` (``cap``
+    if none up to it does): the whole batch at once, so the runs go in parallel instead
+    of one per round. ``n`` runs already at the point: ``m - n`` more add as many degrees
+    of freedom; at a new point (``n = 0``) its ``m`` runs add ``m - 1``."""
     from scipy import stats
 
     for m in range(n + 1, cap + 1):
-        if stats.t.ppf(0.975, df + m - n) * sd / math.sqrt(m) < lab_sd:
+        if stats.t.ppf(0.975, df + m - max(n, 1)) * sd / math.sqrt(m) < lab_sd:
             return m
     return cap
+
+
+def first_batch(noise: dict[str, tuple[float, int]], targets, first: int, least: int) -> int:
+    """Replicates of the first batch at a new production point.
+
+    ``first`` (``[calibration] replicates``) while the production noise is unknown: no
+    point has two runs yet. Once ``noise`` (per response: the seed-to-seed sd pooled over
+    the production points so far, and its df) is known, the fewest replicates, at least
+    ``least`` (``min_replicates``) and at most ``first``, whose 95 % half-width falls
+    below every target's lab sd: where production runs scatter little against the lab
+    (the paper-profile incline: 0.5-1.2 deg against 2.6-3.2), one run decides a point
+    instead of three. A point that lands inside the lab band with too wide an interval
+    still gets more replicates (:func:`replicates_needed`)."""
+    if first <= least:
+        return first
+    need = least
+    for t in targets:
+        if t.sd is None:
+            continue
+        sd, df = noise.get(t.response, (float("nan"), 0))
+        if df < 1 or not np.isfinite(sd):
+            return first
+        need = max(need, replicates_needed(sd, df, least - 1, t.sd, first))
+    return need
 
 
 def _production_specs(campaign, condition, ci, chosen, production, replicates) -> list[RunSpec]:
@@ -671,11 +702,20 @@ def _missing(specs, records) -> int:
     return len({s.key for s in specs} - done)
 
 
-def _production_noise(runs, responses) -> dict[str, tuple[float, int]]:
-    """Per response: the production runs' seed-to-seed sd pooled over their points, and its df."""
+def production_noise(campaign: Campaign, records: Sequence[RunRecord], production: str,
+                     responses) -> dict[str, tuple[float, int]]:
+    """Per response: the seed-to-seed sd of the production runs the loop has seen,
+    pooled over their points, and its df.
+
+    Every condition's points count, not only this condition's: the noise is the
+    production bench's scatter at nearby material values, which a condition's fixed
+    settings (another condition's calibrated values, ``from_campaign``) change no more
+    than its own factors do; the discrepancy is shared between conditions the same way.
+    A point is its whole settings (factors and fixed settings)."""
     groups: dict[tuple, list[RunRecord]] = {}
-    for r in runs:
-        groups.setdefault(tuple(sorted(r.parameters.items())), []).append(r)
+    for r in records:
+        if r.status == "done" and r.kind == "verification" and r.test == campaign.test and r.profile == production:
+            groups.setdefault(json.dumps(r.settings, sort_keys=True), []).append(r)
     return {name: pooled_sd([r.responses[name] for r in rows if name in r.responses] for rows in groups.values())
             for name in responses}
 
