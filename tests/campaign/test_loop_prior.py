@@ -80,6 +80,10 @@ def test_the_first_batch_at_a_new_point_follows_the_pooled_noise():
     # every target must be met; one without a lab sd asks for nothing
     two = lab + [Target("other", 10.0, 0.5), Target("free", 1.0, None)]
     assert first_batch({"angle": (0.2, 2), "other": (0.2, 2), "free": (5.0, 2)}, two, 3, 1) == 2
+    assert first_batch({"free": (0.2, 2)}, [Target("free", 1.0, None)], 3, 1) == 3  # nothing to size by
+    # min_replicates raises the fewest, it does not count as runs already there: pooled sd 1
+    # with 1 df, lab sd 1.45: m = 3 gives t(3) / sqrt 3 = 1.84, m = 4 t(4) / 2 = 1.39
+    assert first_batch({"angle": (1.0, 1)}, [Target("angle", 30.0, 1.45)], 6, 3) == 4
 
 
 def test_a_box_moves_only_when_it_misses_the_middle_half_of_the_lab_window():

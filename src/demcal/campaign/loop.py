@@ -607,9 +607,10 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             narrow = t.sd is None or half < t.sd
             verdict.append((t, mean, half, inside, narrow, sd))
             history.append(Step(iteration, box.index, "production", new,
-                                f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %; seed sd "
-                                f"{sd:.2f} pooled over the production points, df {df}) against "
-                                f"{t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
+                                f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %; "
+                                + (f"seed sd {sd:.2f} pooled over the production points, df {df}" if df > 0
+                                   else "seed sd not known yet: no production point has two runs")
+                                + f") against {t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
                                 predicted=predicted[t.response], simulated=mean, half_width=half,
                                 discrepancy=disc[t.response].describe(), point=dict(chosen)))
         if all(v[3] and v[4] for v in verdict):
@@ -622,11 +623,14 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 return stop(NOISE, f"{t.response}: the mean {mean:.2f} is inside the lab spread, but its 95 % "
                             f"interval ± {half:.2f} is not narrower than the lab sd {t.sd:g} after "
                             f"{replicates} replicates; raise [calibration] max_replicates", **state)
-            need = max(replicates + 1, first_replicates)
+            need = replicates + 1
             for t, mean, half, inside, narrow, sd in verdict:
-                if not narrow and t.sd and np.isfinite(sd):
+                if not narrow and t.sd:
                     df = noise.get(t.response, (float("nan"), 0))[1]
-                    need = max(need, replicates_needed(sd, df, replicates, t.sd, cfg.max_replicates))
+                    if df < 1 or not np.isfinite(sd):  # a probe inside the band: what replicates asks for
+                        need = max(need, first_replicates)
+                    else:
+                        need = max(need, replicates_needed(sd, df, replicates, t.sd, cfg.max_replicates))
             replicates = min(cfg.max_replicates, need)
             hold = True
             continue
@@ -665,15 +669,16 @@ def first_batch(noise: dict[str, tuple[float, int]], targets, first: int, least:
     still gets more replicates (:func:`replicates_needed`)."""
     if first <= least:
         return first
-    need = least
+    need = 0
     for t in targets:
         if t.sd is None:
             continue
         sd, df = noise.get(t.response, (float("nan"), 0))
         if df < 1 or not np.isfinite(sd):
             return first
-        need = max(need, replicates_needed(sd, df, least - 1, t.sd, first))
-    return need
+        # the half-width only shrinks as m grows, so the fewest m >= 1, raised to least
+        need = max(need, replicates_needed(sd, df, 0, t.sd, first))
+    return first if need == 0 else max(need, least)  # no lab sd anywhere: nothing to size it by
 
 
 def _production_specs(campaign, condition, ci, chosen, production, replicates) -> list[RunSpec]:
