@@ -207,6 +207,35 @@ def test_a_new_points_first_batch_is_what_the_pooled_noise_asks_for(tmp_path, le
     assert abs(production[-1].simulated - 34.0) <= 5.0
 
 
+@pytest.mark.parametrize("measured, said", [((0.30, 0.32), True), ((0.0, 2.0), False)])
+def test_a_stored_bias_used_beyond_its_points_is_said(tmp_path, monkeypatch, measured, said):
+    """The first production point leans on a stored bias (here a stand-in, measured over
+    static friction `measured`); a point outside that range gets a note in the result."""
+    from demcal.bench import profiles
+
+    fake = profiles.ProfileBias(
+        test="test-fidelity", response="repose_angle_deg", cheap="tiny", production="quick", bias=BIAS,
+        se=0.1, sd_points=0.1, measured="test",
+        points=tuple({"settings": {"particle.static_friction": mu}} for mu in measured))
+    monkeypatch.setattr(profiles, "stored", lambda *args: fake)
+    path = write(tmp_path, outside=34.0)
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
+    first = cal.conditions[0]
+    assert first.loop.status == "verified", first.loop.reason
+    production = [s for s in first.loop.history if s.stage == "production"]
+    assert "stored tiny → quick bias" in production[0].discrepancy
+    mu = production[0].point["particle.static_friction"]
+    notes = [n for n in first.notes if "stored tiny → quick bias" in n]
+    assert bool(notes) is said and (not said or mu > 0.32)
+    if said:
+        assert notes == [f"inside: the first production point lies outside the points the stored tiny → quick "
+                         f"bias of repose_angle_deg was measured at (particle.static_friction {mu:g} (measured "
+                         f"0.3 to 0.32)): its run tests an extrapolation of that bias, and the loop learns the "
+                         f"bias from it"]
+
+
 @pytest.mark.parametrize("edit, message", [
     (("production = \"quick\"", "production = \"paper\""),
      "loop.toml line 49: 'production' = 'paper' is not known; choose one of: tiny, quick."),

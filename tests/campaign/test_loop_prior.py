@@ -29,6 +29,16 @@ def test_a_stored_bias_is_the_discrepancy_until_production_runs_exist():
     assert Discrepancy([]).describe().startswith("no production run yet (discrepancy 0)")
 
 
+def test_a_stored_bias_knows_the_range_it_was_measured_over():
+    stored = profiles.stored("incline", "sliding_angle_deg", "quick", "paper")
+    mus = [pt["settings"]["film.static_friction"] for pt in stored.points]
+    lo, hi = min(mus), max(mus)
+    assert stored.outside({"film.static_friction": hi}) == []
+    assert stored.outside({"film.static_friction": hi + 0.146, "particle.count": 9}) == [
+        f"film.static_friction {hi + 0.146:g} (measured {lo:g} to {hi:g})"]
+    assert _bias().outside({"film.static_friction": 5.0}) == []  # points without settings
+
+
 def test_stored_priors_apply_to_the_material_settings_only():
     campaign = load_campaign(SLIDING)
     stored = profiles.stored("incline", "sliding_angle_deg", "quick", "paper")

@@ -89,6 +89,22 @@ class ProfileBias:
         order 0.1-1, so a slope reads best per 0.1); empty for a constant."""
         return ", ".join(f"{s / 10:+.1f}° per 0.1 of {t}" for t, s in zip(self.terms, self.slopes))
 
+    def outside(self, settings: Mapping[str, float], tol: float = 1e-9) -> list[str]:
+        """The settings of ``settings`` that lie outside the range the bias was measured
+        over (the points' lowest to highest value of each setting they name), one phrase
+        each, e.g. ``"film.static_friction 0.746 (measured 0.4 to 0.6)"``. A bias is a
+        measurement at its points: beyond them it is an extrapolation, which the loop
+        says (:func:`demcal.campaign.loop.run_condition`)."""
+        out = []
+        for key in sorted({k for pt in self.points for k in pt.get("settings", {})}):
+            values = [float(pt["settings"][key]) for pt in self.points if key in pt.get("settings", {})]
+            if key not in settings or not values:
+                continue
+            lo, hi, v = min(values), max(values), float(settings[key])
+            if v < lo - tol or v > hi + tol:
+                out.append(f"{key} {v:g} (measured {lo:g} to {hi:g})")
+        return out
+
     def describe(self) -> str:
         if not self.terms:
             return (f"stored {self.cheap} → {self.production} bias {self.bias:+.2f} ± {self.se:.2f}° "

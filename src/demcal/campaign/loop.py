@@ -576,6 +576,15 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                         **state)
         specs = _production_specs(campaign, condition, ci, chosen, production, replicates)
         state["specs"] = specs
+        for r in responses:  # a stored bias used beyond the points it was measured at
+            d = disc[r]
+            far = d.prior.bias.outside(specs[0].settings) if d.kind == "stored" and specs else []
+            if far:
+                note = (f"{condition.name}: the first production point lies outside the points the stored "
+                        f"{cheap} → {production} bias of {r} was measured at (" + ", ".join(far)
+                        + "): its run tests an extrapolation of that bias, and the loop learns the bias from it")
+                if note not in notes:
+                    notes.append(note)
         done, new, stopped = _spend(specs, f"{campaign.name} {condition.name} production",
                                f"the production runs at {_show(chosen)}", campaign, run, records, budget)
         if stopped:
