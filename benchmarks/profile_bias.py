@@ -19,10 +19,17 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = "benchmarks/studies/bench-profiles-2026-11-25"
+BEYOND = "benchmarks/studies/bias-beyond-box-2026-11-27"
 #: (test, response, cheap, production, study files, date measured)
 ENTRIES = [
+    # Seven Table 7 points (mu' 0.4-0.6), and since the sixteenth session the four points
+    # where the paper-profile sliding calibration verified (mu' 0.67-1.11; each condition's
+    # particle values from the repose campaign, which are not candidate terms: the old
+    # points lack them): the bias grows with mu' and gamma' (the deep paper bed fails
+    # inside, so what resists at the base raises the quick angle more; docs/validation.md).
     ("incline", "sliding_angle_deg", "quick", "paper",
-     [f"{STUDY}/results-incline-and-quick.jsonl", f"{STUDY}/results-designs-device.jsonl"], "2026-11-27"),
+     [f"{STUDY}/results-incline-and-quick.jsonl", f"{STUDY}/results-designs-device.jsonl",
+      f"{BEYOND}/results-quick.jsonl", f"{BEYOND}/results-paper.jsonl"], "2026-11-27"),
     # The funnel's paper - quick difference changes sign with the rolling friction (type A:
     # -15 deg at 0.3, +9 to +12 deg at 0.1; docs/validation.md): measure() finds the slope in
     # particle.rolling_friction and stores the bias as linear in it, with the points' scatter.

@@ -236,6 +236,22 @@ def test_a_stored_bias_used_beyond_its_points_is_said(tmp_path, monkeypatch, mea
                          f"bias from it"]
 
 
+def test_no_move_left_but_the_window_in_reach_is_solved_at_the_edge(tmp_path):
+    """box_moves = 0: the box reaches about 36.2 at most (with the learnt discrepancy),
+    inside the window 37.3 ± 1.5 but not its middle half (36.55 up); the loop solves at
+    the edge and verifies there instead of stopping, and says so."""
+    text = write(tmp_path, outside=37.3).read_text().replace("box_moves = 4", "box_moves = 0")
+    path = tmp_path / "loop.toml"
+    path.write_text(text)
+    campaign = parse_campaign(text, path)
+    run_campaign(campaign, workers=1, progress=False)
+    second = calibrate(campaign, workers=1, progress=False).conditions[1]
+    assert any("box moves allowed are spent" in n and "solved at the box's edge" in n for n in second.notes)
+    assert second.loop.status in ("verified", "out of reach"), second.loop.reason
+    assert [s.stage for s in second.loop.history if s.stage == "production"]
+    assert true_angle(*second.chosen.values()) > 36.0  # at the box's high edge
+
+
 @pytest.mark.parametrize("edit, message", [
     (("production = \"quick\"", "production = \"paper\""),
      "loop.toml line 49: 'production' = 'paper' is not known; choose one of: tiny, quick."),

@@ -96,6 +96,17 @@ def test_the_first_batch_at_a_new_point_follows_the_pooled_noise():
     assert first_batch({"angle": (1.0, 1)}, [Target("angle", 30.0, 1.45)], 6, 3) == 4
 
 
+def test_a_reach_into_the_lab_window_is_told_from_one_that_misses_it():
+    from demcal.campaign.config import Target
+    from demcal.campaign.loop import in_window
+
+    t = Target("angle", 30.46, 3.2)
+    assert in_window(t, 23.46, 28.27)  # up to 28.27 >= 27.26
+    assert not in_window(t, 20.0, 27.0)
+    assert in_window(t, 33.0, 40.0) and not in_window(t, 34.0, 40.0)
+    assert not in_window(Target("angle", 30.0, None), 29.0, 31.0)
+
+
 def test_a_box_moves_only_when_it_misses_the_middle_half_of_the_lab_window():
     from demcal.campaign.loop import out_of_box
 

@@ -16,7 +16,9 @@ on: :func:`measure` adds a setting to the model only when an F-test says its slo
 real (p < 0.05) and two degrees of freedom remain (forward selection, the classic way to
 grow a regression from few points). With type A rolling the funnel's paper-profile heap
 falls where the quick heap rises with the rolling friction, so its bias is a slope in
-``particle.rolling_friction``; the incline's is a constant (docs/validation.md).
+``particle.rolling_friction``; the incline's grows with the base's resistance (the deep
+paper bed fails inside before its base slides), a slope in ``film.static_friction`` and
+``film.rolling_friction`` (docs/validation.md).
 :meth:`ProfileBias.at` gives the bias and its standard deviation at a point: the model's
 standard error there and the scatter of the points about the model, combined.
 

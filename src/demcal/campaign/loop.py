@@ -450,6 +450,12 @@ def out_of_box(mean: float, sd: float | None, lo: float, hi: float) -> bool:
     return hi < mean - near or lo > mean + near
 
 
+def in_window(target, lo: float, hi: float) -> bool:
+    """Whether the box's reach ``[lo, hi]`` meets the lab window ``mean +- sd`` at all
+    (a target without an sd: never, the window is its mean alone and out_of_box decides)."""
+    return bool(target.sd) and hi >= target.mean - target.sd and lo <= target.mean + target.sd
+
+
 def prior_on_box(bias, campaign: Campaign, condition: Condition, box0: Box, profile: str) -> StoredPrior:
     """A stored bias read at the settings of box-0 coded points: the bench's defaults at
     ``profile``, the campaign's and the condition's fixed settings, the factors' values."""
@@ -522,6 +528,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     iteration = 0
     state: dict[str, Any] = {}
     hold = None
+    missed = None  # (point, target, mean) of the last production point outside the lab band
     while True:
         if hold is None:  # else: the same point again, with more replicates
             full, models, removed, fit_notes, table = fit_box(campaign, box, records(), cheap, design_table)
@@ -534,12 +541,24 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             state["cheap_target"] = cheap_target
             # Reachability on the corrected surface.
             corrected = {r: CorrectedSurface(models[r], disc[r], box, box0) for r in responses}
-            outside = None
+            misses = []
             for t in condition.targets:
                 lo, hi = reachable_range(corrected[t.response], seed=seed)
                 if out_of_box(t.mean, t.sd, lo, hi):
-                    outside = (t, lo, hi)
-                    break
+                    misses.append((t, lo, hi))
+            outside = misses[0] if misses else None
+            if misses and moves >= cfg.box_moves and all(in_window(*m) for m in misses):
+                # No move left, but the box reaches into each lab window (not its middle
+                # half): the verification accepts any mean inside the window, so solve at
+                # the box's edge and verify there rather than stop.
+                for t, lo, hi in misses:
+                    note = (f"{condition.name}: the {cfg.box_moves} box moves allowed are spent and box "
+                            f"{box.index} reaches {t.response} {lo:.2f} to {hi:.2f} with the discrepancy, into "
+                            f"the lab window {t.mean:g} ± {t.sd:g} but not its middle half: solved at the "
+                            f"box's edge")
+                    if note not in notes:
+                        notes.append(note)
+                outside = None
             if outside is not None:
                 t, lo, hi = outside
                 if moves >= cfg.box_moves:
@@ -564,6 +583,14 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             coded = box.to_coded([chosen[f.parameter] for f in f0])
             predicted = {r: float(corrected[r].predict(coded)) for r in responses}
             key = tuple(sorted(chosen.items()))
+            if missed is not None and key == missed[0]:
+                # the re-solve returns the point that already missed: nothing learnt moves it
+                t, mean = missed[1:]
+                return stop(OUT_OF_REACH, f"{t.response}: the best point of box {box.index} on the corrected "
+                            f"surface is the one whose production mean {mean:.2f} already misses {t.mean:g} ± "
+                            f"{t.sd:g}, and what its runs taught does not move it: the target lies at the edge "
+                            f"of what the test reaches here; widen the factor limits or raise "
+                            f"[calibration] box_moves", **state)
             if key != point_key:
                 noise = production_noise(campaign, records(), production, responses)
                 point_key = key
@@ -643,6 +670,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             replicates = min(cfg.max_replicates, need)
             hold = True
             continue
+        t, mean, *_ = next(v for v in verdict if not v[3])
+        missed = (point_key, t, mean)
         iteration += 1
         if iteration >= cfg.iterations:
             t, mean, *_ = next(v for v in verdict if not v[3])
