@@ -674,7 +674,6 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
         missed = (point_key, t, mean)
         iteration += 1
         if iteration >= cfg.iterations:
-            t, mean, *_ = next(v for v in verdict if not v[3])
             return stop(ITERATIONS, f"{t.response}: the production mean {mean:.2f} still misses "
                         f"{t.mean:g} ± {t.sd:g} after {cfg.iterations} solves on the corrected surface; "
                         f"raise [calibration] iterations", **state)
