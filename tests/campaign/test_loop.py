@@ -252,6 +252,29 @@ def test_no_move_left_but_the_window_in_reach_is_solved_at_the_edge(tmp_path):
     assert true_angle(*second.chosen.values()) > 36.0  # at the box's high edge
 
 
+def test_the_path_looks_for_the_production_response_not_the_cheap_one(tmp_path):
+    """Path points run at the cheap profile (here 3 deg below production). The target
+    40.5 lies where the *production* response crosses it between path steps 2 and 3;
+    the cheap responses alone never reach it on the path (they stop near 40), so a path
+    that compared them with the lab target as they were would lay the new box at its
+    last step (production about 42.6) instead."""
+    path = write(tmp_path, outside=40.5)
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    second = calibrate(campaign, workers=1, progress=False).conditions[1]
+    (walk,) = [s for s in second.loop.history if s.stage == "path"]
+    assert "at the tiny profile, read as" in walk.text and "at the quick profile" in walk.text
+    cheap, production = (np.array([float(v) for v in re.findall(r"\d+\.\d+", part)])
+                         for part in walk.text.split("gave ")[1].split(" at steps")[0].split("read as"))
+    shift = production - cheap
+    # the shift is the discrepancy learnt from the first condition: production - cheap = BIAS
+    assert np.allclose(shift, shift[0]) and shift[0] == pytest.approx(BIAS, abs=0.6)
+    assert cheap.max() < 40.5 < production.max()
+    moved = second.loop.boxes[1]
+    assert true_angle(*moved.centre) == pytest.approx(40.5, abs=1.2)
+    assert second.loop.status == "verified", second.loop.reason
+
+
 @pytest.mark.parametrize("edit, message", [
     (("production = \"quick\"", "production = \"paper\""),
      "loop.toml line 49: 'production' = 'paper' is not known; choose one of: tiny, quick."),

@@ -25,8 +25,8 @@ boxes' designs, production runs -- carries those settings:
    Each parameter stays inside its physical limits (the bench setting's range,
    restitution in (0, 1], and the factor's ``hard_low`` / ``hard_high``); a factor at
    its limit stops moving and the others go on (the projected path). Points beyond the
-   box edge are simulated at the cheap profile; where the simulated response crosses
-   the target, a new design of the campaign's kind is laid around that point (the
+   box edge are simulated at the cheap profile; where the simulated response, read at
+   the production profile (the discrepancy at each point added), crosses the target, a new design of the campaign's kind is laid around that point (the
    original half-widths), and every earlier cheap design or path run inside the new
    box is fitted with it. When the path ends at the limits without crossing, the
    condition stops: the target is out of the test's reach.
@@ -568,7 +568,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                                 f"allowed are spent; raise [calibration] box_moves or widen the factor levels",
                                 **state)
                 moved = _move(campaign, condition, box, corrected[t.response], t.mean, lo, hi, limits, run,
-                              records, budget, history, iteration, moves, cheap, cfg)
+                              records, budget, history, iteration, moves, cheap, cfg, production)
                 if isinstance(moved, tuple):
                     return stop(*moved, **state)
                 box = moved
@@ -767,9 +767,20 @@ def _show(params: dict[str, float]) -> str:
 
 
 def _move(campaign, condition, box, model, target, lo, hi, limits, run, records, budget, history, iteration,
-          moves, cheap, cfg):
+          moves, cheap, cfg, production=None):
     """Follow the steepest path from ``box`` toward ``target``; the new box, or
-    ``(status, reason)`` when the loop must stop."""
+    ``(status, reason)`` when the loop must stop.
+
+    ``model`` is the corrected surface (what the production profile gives) and
+    ``target`` the lab's mean, while the path points run at the cheap profile. When the
+    two profiles differ, each path point's cheap response is therefore read at the
+    production profile by adding the discrepancy there (the corrected surface minus the
+    cheap model) before the target is looked for between them: the crossing is where
+    the *production* response meets the lab, not where the cheap one does. (Before
+    27 Nov 2026 the path compared the cheap responses with the lab target as they
+    were: with the quick incline about 5 deg above the paper one, every move of the
+    paper-profile 14.1 % calibration stopped short of the target.) When the two
+    profiles are the same, the path points are production runs and count as measured."""
     k = len(campaign.factors)
     sign = 1.0 if target > hi else -1.0
     grad = sign * np.asarray(model.gradient(np.zeros(k)), float)
@@ -817,12 +828,19 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     for j, rec in zip(where, done):
         if rec.status == "done" and response in rec.responses:
             by_step.setdefault(j, []).append(float(rec.responses[response]))
-    ys = [float(model.predict(points[0]))] + [float(np.mean(by_step[j])) if j in by_step else np.nan
-                                               for j in ks[1:]]
+    measured = [float(np.mean(by_step[j])) if j in by_step else np.nan for j in ks[1:]]
+    shift = [0.0] * len(measured)
+    if production is not None and production != cheap and isinstance(model, CorrectedSurface):
+        shift = [float(model.predict(x)) - float(model.model.predict(x)) for x in points[1:]]
+    ys = [float(model.predict(points[0]))] + [m + d for m, d in zip(measured, shift)]
+    said = ", ".join(f"{y:.2f}" for y in measured)
+    if any(shift):
+        said += (f" at the {cheap} profile, read as " + ", ".join(f"{y:.2f}" for y in ys[1:])
+                 + f" at the {production} profile (the discrepancy there added)")
     history.append(Step(iteration, box.index, "path", new,
                         f"target {target:g} outside box {box.index} ({lo:.2f} to {hi:.2f}); steepest "
-                        f"{'ascent' if sign > 0 else 'descent'} gave "
-                        + ", ".join(f"{y:.2f}" for y in ys[1:]) + f" at steps {', '.join(map(str, ks[1:]))}",
+                        f"{'ascent' if sign > 0 else 'descent'} gave " + said
+                        + f" at steps {', '.join(map(str, ks[1:]))}",
                         point={f.parameter: significant(v, 4) for f, v in zip(campaign.factors, box.to_actual(points[-1]))}))
     crossing = None
     for i in range(1, len(ys)):
