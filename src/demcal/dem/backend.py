@@ -109,21 +109,26 @@ class CpuBackend:
     def forces(self, chosen, table, dt, gravity, store: Store, walls, kick) -> None:
         b, s, p, q = store.bodies, store.spheres, store.pairs, store.walls
         nb, ns = b.n, s.n
-        if ns:
+        if not self.split(nb):  # one compiled call, sharing the step loop's kernels
+            _stepper.forces_whole(chosen, table, dt, gravity, bool(kick), _NO_HALO, _NO_DEFERRED,
+                                  b.pos, b.vel, b.quat, b.angmom, b.omega, b.force, b.torque,
+                                  b.mass, b.inertia, b.iso, b.mat, b.fixed, b.start, s.pos,
+                                  s.radius, s.body, s.acc, p.start, p.other, p.hist, p.out,
+                                  p.act, q.start, q.other, q.hist, q.out, q.act, walls.kind,
+                                  walls.params, walls.velocity, walls.omega, walls.origin,
+                                  walls.material)
+            return
+        if ns:  # split between the threads: chunk by chunk (module docstring of stepper)
             args = (chosen, table, dt, s.pos, s.radius, s.body, b.pos, b.vel, b.omega,
                     b.mass, b.iso, b.mat, p.start, p.other, p.hist, p.out, p.act, s.acc)
-            if self.split(nb):
-                h = self.halo_index(store)
-                rows, bounds, slots = h.rows, h.bounds, h.slots
-                self.workers.each_chunk(lambda c: _forces.pair_forces(
-                    *args, h.row, slots, h.slot, rows[c], rows[c + 1], h.deferred,
-                    h.deferred_start[c], bounds[c], bounds[c + 1]))
-                self.workers.each_chunk(lambda c: _forces.commit_deferred(
-                    p.hist, p.act, h.deferred, h.slot, h.slot_deferred,
-                    slots[rows[c]], slots[rows[c + 1]]))
-            else:
-                _forces.pair_forces(*args, _NO_HALO, _NO_HALO, _NO_HALO, 0, 0,
-                                    _NO_DEFERRED, 0, 0, ns)
+            h = self.halo_index(store)
+            rows, bounds, slots = h.rows, h.bounds, h.slots
+            self.workers.each_chunk(lambda c: _forces.pair_forces(
+                *args, h.row, slots, h.slot, rows[c], rows[c + 1], h.deferred,
+                h.deferred_start[c], bounds[c], bounds[c + 1]))
+            self.workers.each_chunk(lambda c: _forces.commit_deferred(
+                p.hist, p.act, h.deferred, h.slot, h.slot_deferred,
+                slots[rows[c]], slots[rows[c + 1]]))
             self.map_range(nb, _forces.wall_forces, ns, chosen, table, dt, s.pos,
                            s.radius, s.body, b.pos, b.vel, b.omega, b.mass, b.iso, b.mat,
                            q.start, q.other, q.hist, q.out, q.act, s.acc, walls.kind,
@@ -135,6 +140,10 @@ class CpuBackend:
 
     def drift(self, dt, store: Store) -> float:
         b, s = store.bodies, store.spheres
+        if not self.split(b.n):  # the step loop's copy of the kernel (stepper.drift_whole)
+            return math.sqrt(_stepper.drift_whole(dt, b.pos, b.vel, b.quat, b.angmom, b.omega,
+                                                  b.force, b.torque, b.mass, b.inertia, b.fixed,
+                                                  b.start, s.offset, s.pos, s.ref, s.dsq))
         res = self.map_range(b.n, _integ.drift, b.n, dt, b.pos, b.vel, b.quat, b.angmom,
                              b.omega, b.force, b.torque, b.mass, b.inertia, b.fixed,
                              b.start, s.offset, s.pos, s.ref, s.dsq)

@@ -1,13 +1,13 @@
 """Many velocity-Verlet steps in one compiled call.
 
-:func:`run_steps` strings together the same kernels the host calls one by one
-(``integrator.drift``, ``forces.pair_forces``, ``forces.wall_forces``,
-``integrator.gather_kick``) for up to ``nsteps`` steps, so a run pays Python's dispatch
-once per neighbour-list period instead of four times per step; results are bitwise those
-of the step-by-step path. It stops early, right after a drift, when the neighbour list
-must be rebuilt (a sphere moved more than half the skin since the last build, counting
-the walls' travel, or a position became NaN); the host then rebuilds and finishes that
-step. Walls that move by a constant-velocity translation or a constant-rate rotation
+:func:`run_steps` strings together the same kernels the host calls for one step
+(``integrator.drift``, then :func:`forces_whole`: ``forces.pair_forces``,
+``forces.wall_forces``, ``integrator.gather_kick``) for up to ``nsteps`` steps, so a
+run pays Python's dispatch once per neighbour-list period instead of twice per step;
+results are bitwise those of the step-by-step path. It stops early, right after a
+drift, when the neighbour list must be rebuilt (a sphere moved more than half the skin
+since the last build, counting the walls' travel, or a position became NaN); the host
+then rebuilds and finishes that step. Walls that move by a constant-velocity translation or a constant-rate rotation
 are placed at every step's time by :func:`~demcal.geometry.placement.place_moving`;
 the others keep their geometry during the call (the
 host only uses it while no other wall needs re-placing). ``travel_per_step`` bounds how
@@ -137,7 +137,6 @@ def _run_steps(nsteps, dt, time, gravity, chosen, table, half_skin, travel, trav
     the host rebuilds the lists, then evaluates forces and kicks.
     """
     nb = bpos.shape[0]
-    ns = spos.shape[0]
     none = np.zeros(1, np.int64)        # no halo: one chunk
     no_deferred = np.zeros((0, p_hist.shape[1]))
     for k in range(nsteps):
@@ -149,14 +148,11 @@ def _run_steps(nsteps, dt, time, gravity, chosen, table, half_skin, travel, trav
             return k + 1, True, time, travel
         place_moving(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params,
                      ref_origin, wkind, wparams, worigin, wvel, womega)
-        pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
-                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, none, none, none, 0,
-                    0, no_deferred, 0, 0, ns)
-        wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
-                    bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind, wparams, wvel,
-                    womega, worigin, wmat, 0, ns)
-        gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                    binertia, bfixed, bstart, sacc, True, 0, nb)
+        forces_whole(chosen, table, dt, gravity, True, none, no_deferred, bpos, bvel, bquat,
+                     bangmom, bomega, bforce, btorque, bmass, binertia, biso, bmat, bfixed,
+                     bstart, spos, srad, sbody, sacc, p_start, p_nbr, p_hist, p_out, p_act,
+                     q_start, q_wid, q_hist, q_out, q_act, wkind, wparams, wvel, womega,
+                     worigin, wmat)
     return nsteps, False, time, travel
 
 
@@ -228,3 +224,46 @@ def _run_steps_split(nsteps, chunks, dt, time, gravity, chosen, table, half_skin
                                bmass, binertia, bfixed, bstart, soffset, spos, sref, sdsq,
                                b0, b1)
     return nsteps, False, time, travel
+
+
+# One step's forces of an unsplit simulation, for the step loop and for the host's
+# single-step calls (``CpuBackend.forces`` and ``drift``) alike: the kernels' bounds go in
+# as literals (``0``), so numba compiles one copy of each kernel for both. Called from
+# Python with plain integers, the kernels were typed ``int64`` there and
+# ``Literal[int](0)`` in the step loop: two copies, about 12 s of a fresh compile.
+# (Plain integers in the loop too would share one copy, but cost the loop 4-5 %: the
+# literal bounds let LLVM drop the halo branches of the unsplit pair loop.)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def forces_whole(chosen, table, dt, gravity, kick, halo, deferred,
+                 bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia, biso,
+                 bmat, bfixed, bstart, spos, srad, sbody, sacc,
+                 p_start, p_nbr, p_hist, p_out, p_act, q_start, q_wid, q_hist, q_out, q_act,
+                 wkind, wparams, wvel, womega, worigin, wmat):
+    """One step's forces of an unsplit simulation: the pair and wall contacts, the
+    per-body sums and (``kick``) the half kick; ``halo`` and ``deferred`` are the
+    empty halo index and history buffer of an unsplit pair loop."""
+    nb = bpos.shape[0]
+    ns = spos.shape[0]
+    if ns:
+        pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                    bmat, p_start, p_nbr, p_hist, p_out, p_act, sacc, halo, halo, halo, 0,
+                    0, deferred, 0, 0, ns)
+        wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                    bmat, q_start, q_wid, q_hist, q_out, q_act, sacc, wkind, wparams, wvel,
+                    womega, worigin, wmat, 0, ns)
+    if kick:
+        gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                    binertia, bfixed, bstart, sacc, True, 0, nb)
+    else:
+        gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                    binertia, bfixed, bstart, sacc, False, 0, nb)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def drift_whole(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
+                bfixed, bstart, soffset, spos, sref, sdsq):
+    """:func:`~demcal.dem.integrator.drift` over every body of an unsplit simulation."""
+    return drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass, binertia,
+                 bfixed, bstart, soffset, spos, sref, sdsq, 0, bpos.shape[0])
