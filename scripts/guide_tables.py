@@ -142,6 +142,10 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("calibration", "path_points"): "cheap runs along the path of steepest ascent beyond the box "
                                     "edge, per move (default 3).",
     ("calibration", "path_replicates"): "seeds per path point (default 1).",
+    ("calibration", "verify_on_path"): "where two path points bracket the target, verify first at the "
+                                       "crossing read off the path, and lay the moved box's design only "
+                                       "if it misses (default true; false: always lay the design, which "
+                                       "maps a solution set around the point).",
     ("budget", "runs"): "most runs the calibration uses, its design included (default: no limit).",
     ("budget", "cpu_hours"): "most run hours, the sum of the runs' wall times (default: no limit).",
     ("executor", "kind"): "`local` (default: a pool of worker processes) or `dask`.",

@@ -81,14 +81,23 @@ workers = {workers}
 
 
 def write(folder: Path, outside: float = 45.0, hard: bool = False, budget: str = "", workers: int = 1,
-          sleep: float = 0.0) -> Path:
+          sleep: float = 0.0, bias_slope: float = 0.0, calibration: str = "") -> Path:
     hard_lines = {"hard_a": "hard_high = 0.75\n", "hard_b": "hard_high = 0.6\n", "hard_c": "hard_high = 0.35\n"}
-    text = CAMPAIGN.format(outside=outside, budget=budget, workers=workers,
-                           settings=f'[experiment.settings]\n"test.sleep_s" = {sleep}\n' if sleep else "",
+    settings = "".join(f'"test.{k}" = {v}\n' for k, v in (("sleep_s", sleep), ("bias_slope", bias_slope)) if v)
+    text = CAMPAIGN.format(outside=outside, budget=calibration + budget, workers=workers,
+                           settings="[experiment.settings]\n" + settings if settings else "",
                            **(hard_lines if hard else {k: "" for k in hard_lines}))
     path = folder / "loop.toml"
     path.write_text(text)
     return path
+
+
+def calibrated(folder: Path, **kw):
+    """``write``'s campaign run and calibrated: ``(campaign, calibration)``."""
+    path = write(folder, **kw)
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    return campaign, calibrate(campaign, workers=1, progress=False)
 
 
 @pytest.fixture(autouse=True)
@@ -152,10 +161,7 @@ def test_replay_runs_nothing_and_finds_the_same(looped, tmp_path, monkeypatch):
 
 
 def test_unreachable_within_hard_limits_stops_plainly(tmp_path):
-    path = write(tmp_path, hard=True)
-    campaign = parse_campaign(path.read_text(), path)
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    campaign, cal = calibrated(tmp_path, hard=True)
     result = cal.conditions[1]
     assert result.loop.status == "out of reach"
     assert "lies beyond what the test reaches within the parameters' physical limits" in result.loop.reason
@@ -167,10 +173,7 @@ def test_unreachable_within_hard_limits_stops_plainly(tmp_path):
 
 
 def test_budget_stops_plainly(tmp_path):
-    path = write(tmp_path, budget="[budget]\nruns = 20\n")
-    campaign = parse_campaign(path.read_text(), path)
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    campaign, cal = calibrated(tmp_path, budget="[budget]\nruns = 20\n")
     statuses = [c.loop.status for c in cal.conditions]
     assert "budget spent" in statuses
     reason = next(c.loop.reason for c in cal.conditions if c.loop.status == "budget spent")
@@ -218,10 +221,7 @@ def test_a_stored_bias_used_beyond_its_points_is_said(tmp_path, monkeypatch, mea
         se=0.1, sd_points=0.1, measured="test",
         points=tuple({"settings": {"particle.static_friction": mu}} for mu in measured))
     monkeypatch.setattr(profiles, "stored", lambda *args: fake)
-    path = write(tmp_path, outside=34.0)
-    campaign = parse_campaign(path.read_text(), path)
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    campaign, cal = calibrated(tmp_path, outside=34.0)
     first = cal.conditions[0]
     assert first.loop.status == "verified", first.loop.reason
     production = [s for s in first.loop.history if s.stage == "production"]
@@ -257,11 +257,9 @@ def test_the_path_looks_for_the_production_response_not_the_cheap_one(tmp_path):
     40.5 lies where the *production* response crosses it between path steps 2 and 3;
     the cheap responses alone never reach it on the path (they stop near 40), so a path
     that compared them with the lab target as they were would lay the new box at its
-    last step (production about 42.6) instead."""
-    path = write(tmp_path, outside=40.5)
-    campaign = parse_campaign(path.read_text(), path)
-    run_campaign(campaign, workers=1, progress=False)
-    second = calibrate(campaign, workers=1, progress=False).conditions[1]
+    last step (production about 42.6) instead. (verify_on_path off: the box is laid.)"""
+    campaign, cal = calibrated(tmp_path, outside=40.5, calibration="verify_on_path = false\n")
+    second = cal.conditions[1]
     (walk,) = [s for s in second.loop.history if s.stage == "path"]
     assert "at the tiny profile, read as" in walk.text and "at the quick profile" in walk.text
     cheap, production = (np.array([float(v) for v in re.findall(r"\d+\.\d+", part)])
@@ -273,6 +271,53 @@ def test_the_path_looks_for_the_production_response_not_the_cheap_one(tmp_path):
     moved = second.loop.boxes[1]
     assert true_angle(*moved.centre) == pytest.approx(40.5, abs=1.2)
     assert second.loop.status == "verified", second.loop.reason
+    assert second.loop.on_path is None
+
+
+def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_path):
+    """The same target with verify_on_path (the default): the production runs go to the
+    crossing, read off the path between steps 2 and 3, and meet the target there, so no
+    box is laid (15 design runs saved); the result says it has no solution set."""
+    campaign, cal = calibrated(tmp_path, outside=40.5)
+    second = cal.conditions[1]
+    assert second.loop.status == "verified", second.loop.reason
+    assert [b.index for b in second.loop.boxes] == [0]
+    assert [s.stage for s in second.loop.history] == ["path"] + ["production"] * (len(second.loop.history) - 1)
+    assert second.loop.on_path["steps"] == (2, 3) and second.loop.on_path["box"] == 0
+    assert "on the path from box 0 (between steps 2 and 3)" in second.loop.history[1].text
+    assert "no solution set" in second.loop.reason
+    assert true_angle(*second.chosen.values()) == pytest.approx(40.5, abs=1.0)
+    assert second.chosen["particle.static_friction"] > 0.5  # beyond the box
+    assert second.factor_ranges == {} and np.isnan(second.desirability)
+    (verdict,) = second.verdicts
+    assert verdict.predicted == pytest.approx(40.5) and "on the path" in verdict.confirmation
+    data = cal.to_dict()["conditions"][1]
+    assert data["on_path"]["steps"] == [2, 3] and data["desirability"] is None
+    assert data["chosen"] == second.chosen
+    # replayed from the store (resume, `demcal report`): the same point, nothing run
+    again = calibrate(campaign, simulate=False, progress=False).conditions[1]
+    assert again.chosen == second.chosen and again.loop.on_path == second.loop.on_path
+    from demcal.report.campaign_report import write_report
+
+    html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()
+    assert "outside: verified at a point on the path of steepest ascent (or descent) from box 0" in html
+    assert "Solving for inside" in html and "Solving for outside" not in html
+
+
+def test_a_point_on_the_path_that_misses_gets_its_box_after_all(tmp_path):
+    """The cheap profile's bias grows beyond the box (test.bias_slope): the path, read
+    with the bias learnt near the box, crosses 40.5 where production is about 2 deg
+    higher (42.9); that point misses, so the new box's design is laid around the crossing and
+    the loop goes on from it with what the point taught."""
+    campaign, cal = calibrated(tmp_path, outside=40.5, bias_slope=4.0)
+    second = cal.conditions[1]
+    stages = [s.stage for s in second.loop.history]
+    assert stages[:3] == ["path", "production", "design"], stages
+    first = second.loop.history[1]
+    assert "on the path from box 0" in first.text and abs(first.simulated - 40.5) > 1.5
+    assert len(second.loop.boxes) >= 2 and second.loop.on_path is None
+    assert second.loop.status == "verified", second.loop.reason
+    assert true_angle(*second.chosen.values()) == pytest.approx(40.5, abs=1.5)
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -65,6 +65,8 @@ class ResponseVerdict:
     reachable: tuple[float, float]  #: the model's range inside the design box
     #: 95 % prediction interval of one new run at the chosen parameters (NaN: none)
     interval: tuple[float, float] = (float("nan"), float("nan"))
+    #: why there is no interval, when there is none
+    no_interval: str = "no residual degrees of freedom"
 
     @property
     def simulated_mean(self) -> float:
@@ -96,7 +98,7 @@ class ResponseVerdict:
         if not self.simulated:
             return "not simulated yet"
         if not np.all(np.isfinite(self.interval)):
-            return "no interval (no residual degrees of freedom)"
+            return f"no interval ({self.no_interval})"
         inside = self.inside_interval
         if all(inside):
             return "confirmed"
@@ -200,7 +202,7 @@ class Calibration:
                    if settings else {}),
                 **({"models": _models_dict(self.campaign, design)} if several else {}),
                 "chosen": result.chosen, "chosen_coded": result.chosen_coded,
-                "desirability": result.desirability,
+                "desirability": _num(result.desirability),
                 "factor_ranges": {k: list(v) for k, v in result.factor_ranges.items()},
                 "reference": dict(result.condition.reference),
                 "reference_predicted": result.reference_predicted,
@@ -236,7 +238,8 @@ def _loop_dict(campaign: Campaign, loop) -> dict[str, Any]:
             "box": loop.box.to_dict(campaign), "boxes": [b.to_dict(campaign) for b in loop.boxes],
             "history": [step.to_dict() for step in loop.history],
             "discrepancy": {r: d.describe() for r, d in loop.discrepancy.items()},
-            "cheap_target": loop.cheap_target}
+            "cheap_target": loop.cheap_target,
+            **({"on_path": {**loop.on_path, "steps": list(loop.on_path["steps"])}} if loop.on_path else {})}
 
 
 def _num(value: float) -> float | None:
@@ -558,9 +561,15 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
     if best is None:  # stopped before a solve: the box's nearest point to the target
         best, optimization, cond_notes = solve_condition(boxed, corrected or loop.models, condition)
     chosen = {by_name[n].parameter: _round(float(best[f"actual:{n}"])) for n in names}
+    desirability = float(best["desirability"])
+    ranges = {by_name[n].parameter: tuple(map(float, r)) for n, r in optimization.factor_ranges.items()}
+    on_path = loop.on_path
+    if on_path is not None:
+        # verified on a path beyond the box: that point, with no solution set around it
+        chosen = {by_name[n].parameter: float(on_path["point"][by_name[n].parameter]) for n in names}
+        desirability, ranges = float("nan"), {}
     coded = {n: float(by_name[n].to_coded(chosen[by_name[n].parameter])) for n in names}
     point = np.array([coded[n] for n in names])
-    ranges = {by_name[n].parameter: tuple(map(float, r)) for n, r in optimization.factor_ranges.items()}
     reference_predicted = {}
     if condition.reference and all(f.parameter in condition.reference for f in boxed.factors):
         ref = np.array([[by_name[n].to_coded(condition.reference[by_name[n].parameter]) for n in names]])
@@ -570,15 +579,18 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
         model = corrected.get(target.response, loop.models[target.response])
         verdicts.append(ResponseVerdict(
             response=target.response, target=target.mean, lab_sd=target.sd,
-            predicted=float(model.predict(point[None, :])[0]), simulated=[],
-            reachable=tuple(map(float, reachable_range(model))),
-            interval=prediction_interval(loop.models[target.response], model, point),
+            predicted=(float(model.predict(point[None, :])[0]) if on_path is None else float(on_path["estimate"])),
+            simulated=[], reachable=tuple(map(float, reachable_range(model))),
+            interval=(prediction_interval(loop.models[target.response], model, point) if on_path is None
+                      else (float("nan"), float("nan"))),
+            **({} if on_path is None else {"no_interval": "a point on the path of steepest ascent, beyond the "
+                                                          "box's model"}),
         ))
     notes = list(cond_notes) + list(loop.notes)
     if loop.status != "verified":
         notes.insert(0, f"the loop stopped ({loop.status}): {loop.reason}.")
     result = ConditionResult(
-        condition=condition, chosen=chosen, chosen_coded=coded, desirability=float(best["desirability"]),
+        condition=condition, chosen=chosen, chosen_coded=coded, desirability=desirability,
         optimization=optimization, factor_ranges=ranges, verdicts=verdicts, verification=list(loop.production),
         specs=list(loop.specs), notes=notes, reference_predicted=reference_predicted, loop=loop)
     for verdict in verdicts:

@@ -23,7 +23,7 @@ example)::
                     [conditions.settings] KEY = VALUE, [conditions.reference] PARAMETER = VALUE
     [verification]  replicates, seed
     [calibration]   production, replicates, min_replicates, max_replicates, iterations,
-                    box_moves, path_points, path_replicates (the closed loop of :mod:`demcal.campaign.loop`)
+                    box_moves, path_points, path_replicates, verify_on_path (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
@@ -86,7 +86,7 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
     "calibration": ("production", "replicates", "min_replicates", "max_replicates", "iterations", "box_moves",
-                    "path_points", "path_replicates"),
+                    "path_points", "path_replicates", "verify_on_path"),
     "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
     "report": ("title", "reference_table", "captions"),
@@ -203,6 +203,9 @@ class CalibrationConfig:
     box_moves: int = 3  #: most box moves per condition
     path_points: int = 3  #: runs along the steepest path beyond the box, per move
     path_replicates: int = 1  #: seeds per path point
+    #: verify first at the point where the path crosses the target (between two of its
+    #: points), and lay the moved box's design only if that point misses
+    verify_on_path: bool = True
     budget_runs: int | None = None  #: most runs the calibration uses (its design included)
     budget_cpu_hours: float | None = None  #: most run hours (sum of the runs' wall times)
 
@@ -498,6 +501,12 @@ class _Loader:
             raise self.error(where + (key,), f"'{key}' must be a whole number, got {value!r}")
         if value < minimum:
             raise self.error(where + (key,), f"'{key}' must be at least {minimum}, got {value}")
+        return value
+
+    def boolean(self, data: Mapping, key: str, where: tuple, default: bool) -> bool:
+        value = data.get(key, default)
+        if not isinstance(value, bool):
+            raise self.error(where + (key,), f"'{key}' must be true or false, got {value!r}")
         return value
 
     def choice(self, data: Mapping, key: str, where: tuple, choices: tuple[str, ...], default: str) -> str:
@@ -972,6 +981,7 @@ class _Loader:
             box_moves=self.integer(data, "box_moves", where, 3, 0),
             path_points=self.integer(data, "path_points", where, 3, 1),
             path_replicates=self.integer(data, "path_replicates", where, 1, 1),
+            verify_on_path=self.boolean(data, "verify_on_path", where, True),
             budget_runs=runs, budget_cpu_hours=hours)
         first = config.replicates or self.integer(verification, "replicates", ("verification",), 3, 0)
         if first > config.max_replicates:

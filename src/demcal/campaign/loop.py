@@ -400,6 +400,10 @@ class LoopResult:
     history: list[Step]
     notes: list[str]
     cheap_target: dict[str, float]
+    #: set when the production point lies on a path of steepest ascent (no box around it):
+    #: ``point`` (its parameters), ``box`` (the box the path left), ``steps`` (the two path
+    #: steps it lies between), ``estimate`` (the production response read off the path there)
+    on_path: dict | None = None
 
     def corrected(self) -> dict:
         """Response -> the final box's model plus its production discrepancy
@@ -523,13 +527,15 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                           discrepancy=state.get("disc", {}), best=state.get("best"),
                           optimization=state.get("optimization"), production=state.get("prod", []),
                           specs=state.get("specs", []), history=history, notes=notes,
-                          cheap_target=state.get("cheap_target", {}))
+                          cheap_target=state.get("cheap_target", {}), on_path=state.get("on_path"))
 
     iteration = 0
     state: dict[str, Any] = {}
     hold = None
     missed = None  # (point, target, mean) of the last production point outside the lab band
+    pending: PathEnd | None = None  # a path crossing verified before its box's design is laid
     while True:
+        on_path = None
         if hold is None:  # else: the same point again, with more replicates
             full, models, removed, fit_notes, table = fit_box(campaign, box, records(), cheap, design_table)
             notes.extend(n for n in fit_notes if n not in notes)
@@ -571,17 +577,33 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                               records, budget, history, iteration, moves, cheap, cfg, production)
                 if isinstance(moved, tuple):
                     return stop(*moved, **state)
-                box = moved
-                boxes.append(box)
                 moves += 1
-                continue
-            # Solve on the corrected surface.
-            best, optimization, solve_notes = solve_condition(box.campaign(campaign), corrected, condition, seed=seed)
-            state.update(best=best, optimization=optimization)
-            chosen = {f.parameter: round_parameter(float(best[f"actual:{f.name}"]))
-                      for f in box.campaign(campaign).factors}
-            coded = box.to_coded([chosen[f.parameter] for f in f0])
-            predicted = {r: float(corrected[r].predict(coded)) for r in responses}
+                if cfg.verify_on_path and moved.point is not None and len(condition.targets) == 1:
+                    # The path crossed the target between two of its points: verify there
+                    # first; the new box's design is laid only if that point misses.
+                    pending = on_path = moved
+                else:
+                    laid = _lay_box(campaign, moved.box, run, records, budget, history, iteration)
+                    if isinstance(laid, tuple):
+                        return stop(*laid, **state)
+                    box = laid
+                    boxes.append(box)
+                    continue
+            if on_path is not None:
+                chosen = dict(on_path.point)
+                coded = box.to_coded([chosen[f.parameter] for f in f0])
+                predicted = {t.response: on_path.estimate for t in condition.targets}
+                state["on_path"] = {"point": dict(chosen), "box": box.index, "steps": on_path.steps,
+                                    "estimate": on_path.estimate}
+            else:
+                # Solve on the corrected surface.
+                best, optimization, solve_notes = solve_condition(box.campaign(campaign), corrected, condition,
+                                                                  seed=seed)
+                state.update(best=best, optimization=optimization)
+                chosen = {f.parameter: round_parameter(float(best[f"actual:{f.name}"]))
+                          for f in box.campaign(campaign).factors}
+                coded = box.to_coded([chosen[f.parameter] for f in f0])
+                predicted = {r: float(corrected[r].predict(coded)) for r in responses}
             key = tuple(sorted(chosen.items()))
             if missed is not None and key == missed[0]:
                 # the re-solve returns the point that already missed: nothing learnt moves it
@@ -624,8 +646,11 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 x0 = box0.to_coded(_point(campaign, rec))
                 for r in responses:
                     if r in rec.responses:
-                        residuals.setdefault(r, []).append(
-                            (x0, float(rec.responses[r]) - float(models[r].predict(coded))))
+                        # on a path beyond the box, the cheap response measured along the path
+                        # (interpolated), not the box's model extrapolated
+                        cheap_here = (pending.cheap if pending is not None and r == pending.response
+                                      else float(models[r].predict(coded)))
+                        residuals.setdefault(r, []).append((x0, float(rec.responses[r]) - cheap_here))
         if len(ok) < len(done):
             failed = [r for r in done if r.status != "done"]
             return stop(NOT_VERIFIED, f"{len(failed)} production runs failed ({failed[0].label}: "
@@ -642,8 +667,10 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             inside = t.sd is None or abs(mean - t.mean) <= t.sd
             narrow = t.sd is None or half < t.sd
             verdict.append((t, mean, half, inside, narrow, sd))
+            where = (f" on the path from box {box.index} (between steps {pending.steps[0]} and "
+                     f"{pending.steps[1]})" if pending is not None else "")
             history.append(Step(iteration, box.index, "production", new,
-                                f"{production} x{len(values)}: {mean:.2f} ± {half:.2f} (95 %; "
+                                f"{production} x{len(values)}{where}: {mean:.2f} ± {half:.2f} (95 %; "
                                 + (f"seed sd {sd:.2f} pooled over the production points, df {df}" if df > 0
                                    else "seed sd not known yet: no production point has two runs")
                                 + f") against {t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
@@ -651,7 +678,10 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                                 discrepancy=disc[t.response].describe(), point=dict(chosen)))
         if all(v[3] and v[4] for v in verdict):
             return stop(VERIFIED, "the production mean lies inside the lab's mean ± sd and its 95 % "
-                        "interval is narrower than the lab sd", **state)
+                        "interval is narrower than the lab sd"
+                        + (f", at a point on the path of steepest {'ascent' if pending.sign > 0 else 'descent'} "
+                           f"from box {box.index} (no design was laid around it, so there is no solution set)"
+                           if pending is not None else ""), **state)
         if all(v[3] for v in verdict):
             # Inside, but not yet sure: more replicates where the noise asks for them.
             if replicates >= cfg.max_replicates:
@@ -672,6 +702,17 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             continue
         t, mean, *_ = next(v for v in verdict if not v[3])
         missed = (point_key, t, mean)
+        if pending is not None:
+            # the point on the path missed: lay the new box's design around the crossing
+            # after all (the classic method), with what the point taught in the discrepancy
+            laid = _lay_box(campaign, pending.box, run, records, budget, history, iteration)
+            if isinstance(laid, tuple):
+                return stop(*laid, **state)
+            box = laid
+            boxes.append(box)
+            pending = None
+            state.pop("on_path", None)
+            continue
         iteration += 1
         if iteration >= cfg.iterations:
             return stop(ITERATIONS, f"{t.response}: the production mean {mean:.2f} still misses "
@@ -842,12 +883,15 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                         f"{'ascent' if sign > 0 else 'descent'} gave " + said
                         + f" at steps {', '.join(map(str, ks[1:]))}",
                         point={f.parameter: significant(v, 4) for f, v in zip(campaign.factors, box.to_actual(points[-1]))}))
-    crossing = None
+    cheap_ys = [float(getattr(model, "model", model).predict(points[0]))] + measured
+    crossing, bracket = None, None
     for i in range(1, len(ys)):
         if np.isfinite(ys[i]) and sign * (ys[i] - target) >= 0:
             a = ys[i - 1] if np.isfinite(ys[i - 1]) else ys[0]
             frac = 1.0 if ys[i] == a else float(np.clip((target - a) / (ys[i] - a), 0.0, 1.0))
             crossing = points[i - 1] + frac * (points[i] - points[i - 1])
+            if np.isfinite(ys[i - 1]):  # bracketed by two values read at the points themselves
+                bracket = (i - 1, i, frac)
             break
     last = points[-1]
     at_limit = not np.any((np.abs(grad) > 1e-12) & ~(((last >= coded_hi - 1e-9) & (grad > 0))
@@ -859,6 +903,13 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                                   f"parameters' physical limits: the steepest path from box {box.index} ends at "
                                   f"the limits at {best:.2f}")
         crossing = points[-1]
+    point = None
+    if bracket is not None and not np.all(np.abs(crossing) <= 1 + INSIDE_TOL):
+        below, i, frac = bracket
+        actual = _clean(box.to_actual(crossing), limits)
+        point = {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
+        cheap_at = cheap_ys[below] + frac * (cheap_ys[i] - cheap_ys[below])
+        steps = (ks[below], ks[i])
     if np.all(np.abs(crossing) <= 1 + INSIDE_TOL):  # no further than the box itself
         crossing = points[-1]
     centre = box.to_actual(crossing)
@@ -869,6 +920,30 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                 reason=(f"move {moves + 1}: {response} target {target:g} outside box {box.index} "
                         f"({lo:.2f} to {hi:.2f}); the steepest path crossed it near "
                         + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})))
+    if point is None:
+        return PathEnd(moved, response, sign)
+    return PathEnd(moved, response, sign, point, float(cheap_at), float(target), steps)
+
+
+@dataclass(frozen=True)
+class PathEnd:
+    """Where a path of steepest ascent (or descent) met its target: the new box around
+    the crossing (its design not yet run) and, when two path points bracket the target,
+    the crossing point itself, read off the path by linear interpolation between them:
+    its parameters, the cheap response there and the production estimate (the target)."""
+
+    box: Box
+    response: str
+    sign: float  #: +1 ascent, -1 descent
+    point: dict[str, float] | None = None
+    cheap: float = float("nan")
+    estimate: float = float("nan")
+    steps: tuple = ()  #: the path steps the point lies between (1 = the box's model at its edge)
+
+
+def _lay_box(campaign, moved: Box, run, records, budget, history, iteration):
+    """Run the design of the moved box (earlier runs inside it count); the box, or
+    ``(status, reason)`` when the loop must stop."""
     from demcal.campaign.runner import plan_design
 
     plan = plan_design(moved.campaign(campaign))
@@ -877,6 +952,7 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                                   f"the design runs of box {moved.index}", campaign, run, records, budget)
     if stopped:
         return stopped
+    centre = moved.centre
     history.append(Step(iteration, moved.index, "design", added,
                         f"box {moved.index}: " + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})
                         + f" ± half-widths; {len(specs)} design runs ({len(specs) - added} done before)"))

@@ -337,6 +337,18 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                         f"{'is' if len(outside) == 1 else 'are'} "
                         "outside the design box; the model's prediction there is extrapolated and not to "
                         "be trusted.")
+        on_path = result.loop.on_path if result.loop is not None else None
+        if on_path is not None:
+            steps = on_path["steps"]
+            report.paragraph(
+                f"{result.condition.name}: verified at a point on the path of steepest ascent (or descent) "
+                f"from box {on_path['box']}, where the path crossed the lab target between its steps "
+                f"{steps[0]} and {steps[1]} (read off the path by linear interpolation: "
+                f"{on_path['estimate']:.2f}). The production runs there met the target, so no design was "
+                "laid around the point: it is one verified parameter set, with no solution set and no "
+                "factor ranges. Lay a design around it (set [calibration] verify_on_path = false) to map "
+                "the other settings that give the same angle.")
+            continue
         title = f"Solving for {result.condition.name} (solution 1, the star, is simulated)"
         substitutes = [f"the lab's {v.response} {v.target:g} is out of reach, so the goal is {goal.target:.2f}"
                        for v in result.verdicts
