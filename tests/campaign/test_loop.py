@@ -80,13 +80,17 @@ workers = {workers}
 """
 
 
-def write(folder: Path, outside: float = 45.0, hard: bool = False, budget: str = "", workers: int = 1,
-          sleep: float = 0.0, bias_slope: float = 0.0, calibration: str = "") -> Path:
+def write(folder: Path, outside: float = 45.0, hard: bool | str = False, budget: str = "", workers: int = 1,
+          sleep: float = 0.0, bias_slope: float = 0.0, curvature: float = 0.0, calibration: str = "") -> Path:
+    """The loop campaign in ``folder``; ``hard``: hard limits on every factor (True) or on
+    the factors named (e.g. "ac")."""
     hard_lines = {"hard_a": "hard_high = 0.75\n", "hard_b": "hard_high = 0.6\n", "hard_c": "hard_high = 0.35\n"}
-    settings = "".join(f'"test.{k}" = {v}\n' for k, v in (("sleep_s", sleep), ("bias_slope", bias_slope)) if v)
+    named = "abc" if hard is True else (hard or "")
+    settings = "".join(f'"test.{k}" = {v}\n' for k, v in (("sleep_s", sleep), ("bias_slope", bias_slope),
+                                                          ("curvature", curvature)) if v)
     text = CAMPAIGN.format(outside=outside, budget=calibration + budget, workers=workers,
                            settings="[experiment.settings]\n" + settings if settings else "",
-                           **(hard_lines if hard else {k: "" for k in hard_lines}))
+                           **{k: (v if k[-1] in named else "") for k, v in hard_lines.items()})
     path = folder / "loop.toml"
     path.write_text(text)
     return path
@@ -318,6 +322,22 @@ def test_a_point_on_the_path_that_misses_gets_its_box_after_all(tmp_path):
     assert len(second.loop.boxes) >= 2 and second.loop.on_path is None
     assert second.loop.status == "verified", second.loop.reason
     assert true_angle(*second.chosen.values()) == pytest.approx(40.5, abs=1.5)
+
+
+def test_a_path_that_turns_back_into_an_earlier_box_ends_the_moves(tmp_path):
+    """The response peaks in mu within reach (test.curvature 40: at mu 0.71, at most
+    about 39 deg with e and mu_r at their hard limits) and the target 45 lies above it.
+    The path from box 0 ends beyond the peak; box 1's path leads back into box 0.
+    Instead of laying box 0 again (and box 1 after it, until the moves are spent), the
+    loop stops there, out of reach, and says why."""
+    campaign, cal = calibrated(tmp_path, outside=45.0, curvature=40.0, hard="ac")
+    second = cal.conditions[1]
+    assert second.loop.status == "out of reach", second.loop.reason
+    assert "turns back into box 0" in second.loop.reason and "peaks between them" in second.loop.reason
+    assert [s.stage for s in second.loop.history] == ["path", "design", "path"]
+    assert [b.index for b in second.loop.boxes] == [0, 1]
+    peak = max(true_angle(e, mu, mu_r, 40.0) for e in (0.75,) for mu in np.linspace(0.3, 1.2, 91) for mu_r in (0.35,))
+    assert peak < 45.0 - 1.5
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -26,10 +26,14 @@ boxes' designs, production runs -- carries those settings:
    restitution in (0, 1], and the factor's ``hard_low`` / ``hard_high``); a factor at
    its limit stops moving and the others go on (the projected path). Points beyond the
    box edge are simulated at the cheap profile; where the simulated response, read at
-   the production profile (the discrepancy at each point added), crosses the target, a new design of the campaign's kind is laid around that point (the
-   original half-widths), and every earlier cheap design or path run inside the new
-   box is fitted with it. When the path ends at the limits without crossing, the
-   condition stops: the target is out of the test's reach.
+   the production profile (the discrepancy at each point added), crosses the target,
+   a new design of the campaign's kind is laid around that point (the original
+   half-widths), and every earlier cheap design or path run inside the new box is
+   fitted with it. Where two path points bracket the target, the crossing is
+   verified first (``verify_on_path``) and the box is laid only if it misses. When the
+   path ends at the limits without crossing, the condition stops: the target is out of
+   the test's reach; when it turns back into an earlier box (the response peaks
+   between them), no further move is made (:func:`_turned_back`).
 3. **Production runs** at the solution nearest the box centre, with replicates (their
    seed-to-seed sd, pooled over every production point, is the noise; once it is known,
    a new point's first batch is the fewest replicates it says are enough, between
@@ -534,6 +538,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     hold = None
     missed = None  # (point, target, mean) of the last production point outside the lab band
     pending: PathEnd | None = None  # a path crossing verified before its box's design is laid
+    turned = None  # why no further move is made, when a path turned back into an earlier box
     while True:
         on_path = None
         if hold is None:  # else: the same point again, with more replicates
@@ -553,7 +558,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 if out_of_box(t.mean, t.sd, lo, hi):
                     misses.append((t, lo, hi))
             outside = misses[0] if misses else None
-            if misses and moves >= cfg.box_moves and all(in_window(*m) for m in misses):
+            if misses and (moves >= cfg.box_moves or turned) and all(in_window(*m) for m in misses):
                 # No move left, but the box reaches into each lab window (not its middle
                 # half): the verification accepts any mean inside the window, so solve at
                 # the box's edge and verify there rather than stop.
@@ -567,6 +572,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 outside = None
             if outside is not None:
                 t, lo, hi = outside
+                if turned is not None:
+                    return stop(OUT_OF_REACH, turned, **state)
                 if moves >= cfg.box_moves:
                     return stop(OUT_OF_REACH if cfg.box_moves == 0 else ITERATIONS,
                                 f"the target {t.response} = {t.mean:g} lies outside what box {box.index} reaches "
@@ -582,6 +589,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                     # The path crossed the target between two of its points: verify there
                     # first; the new box's design is laid only if that point misses.
                     pending = on_path = moved
+                elif (turned := _turned_back(moved, boxes, box, t, condition)) is not None:
+                    notes.append(turned)
+                    continue
                 else:
                     laid = _lay_box(campaign, moved.box, run, records, budget, history, iteration)
                     if isinstance(laid, tuple):
@@ -705,13 +715,17 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
         if pending is not None:
             # the point on the path missed: lay the new box's design around the crossing
             # after all (the classic method), with what the point taught in the discrepancy
+            state.pop("on_path", None)
+            if (turned := _turned_back(pending, boxes, box, t, condition)) is not None:
+                notes.append(turned)
+                pending = None
+                continue
             laid = _lay_box(campaign, pending.box, run, records, budget, history, iteration)
             if isinstance(laid, tuple):
                 return stop(*laid, **state)
             box = laid
             boxes.append(box)
             pending = None
-            state.pop("on_path", None)
             continue
         iteration += 1
         if iteration >= cfg.iterations:
@@ -939,6 +953,31 @@ class PathEnd:
     cheap: float = float("nan")
     estimate: float = float("nan")
     steps: tuple = ()  #: the path steps the point lies between (1 = the box's model at its edge)
+
+
+def _turned_back(end: PathEnd, boxes: Sequence[Box], box: Box, target, condition) -> str | None:
+    """Why no box is laid where the path ended, or None.
+
+    A path that ends inside a box the loop has already been in has turned back: the
+    gradient of the box it left points the way it came, because the response peaks
+    between the two (the paper-profile incline saturates near 27-28 deg at mu' 0.9-1.1
+    with the 14.1 % particles: the box beyond the peak sends the path back to the box
+    before it, whose path sends it out again). Laying that box again would repeat its
+    design with new seeds; the loop instead makes no further move and treats the box it
+    is in as the last one (solved at its edge when it reaches into the lab window, else
+    out of reach)."""
+    centre = end.box.centre
+    # (the box the path left does not count: a path held at the parameters' limits may
+    # end with its new box overlapping the old one, which is no turn)
+    back = next((b for b in boxes if b.index != box.index and np.all(np.abs(b.to_coded(centre)) <= 1 + INSIDE_TOL)),
+                None)
+    if back is None:
+        return None
+    way = "ascent" if end.sign > 0 else "descent"
+    return (f"{condition.name}: the path of steepest {way} from box {box.index} turns back into box {back.index} "
+            f"without crossing {target.response} = {target.mean:g} (its new box would lie inside box "
+            f"{back.index}): the response peaks between them, so no further move is made and box {box.index} "
+            f"is the last; the target lies beyond what the test reaches along the paths")
 
 
 def _lay_box(campaign, moved: Box, run, records, budget, history, iteration):
