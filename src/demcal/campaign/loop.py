@@ -562,8 +562,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 # No move left, but the box reaches into each lab window (not its middle
                 # half): the verification accepts any mean inside the window, so solve at
                 # the box's edge and verify there rather than stop.
+                why = ("a path turned back, so" if turned else f"the {cfg.box_moves} box moves allowed are spent and")
                 for t, lo, hi in misses:
-                    note = (f"{condition.name}: the {cfg.box_moves} box moves allowed are spent and box "
+                    note = (f"{condition.name}: {why} box "
                             f"{box.index} reaches {t.response} {lo:.2f} to {hi:.2f} with the discrepancy, into "
                             f"the lab window {t.mean:g} ± {t.sd:g} but not its middle half: solved at the "
                             f"box's edge")
