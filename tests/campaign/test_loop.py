@@ -290,6 +290,7 @@ def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_pa
     assert second.loop.on_path["steps"] == (2, 3) and second.loop.on_path["box"] == 0
     assert "on the path from box 0 (between steps 2 and 3)" in second.loop.history[1].text
     assert "no solution set" in second.loop.reason
+    assert not any("nearest point" in n for n in second.notes)  # the old box's solve notes do not apply
     assert true_angle(*second.chosen.values()) == pytest.approx(40.5, abs=1.0)
     assert second.chosen["particle.static_friction"] > 0.5  # beyond the box
     assert second.factor_ranges == {} and np.isnan(second.desirability)
@@ -304,7 +305,8 @@ def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_pa
     from demcal.report.campaign_report import write_report
 
     html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()
-    assert "outside: verified at a point on the path of steepest ascent (or descent) from box 0" in html
+    assert "outside: verified at a point on the path of steepest ascent from box 0" in html
+    assert "the target, on the path from box 0 (read off the path)" in html
     assert "Solving for inside" in html and "Solving for outside" not in html
 
 

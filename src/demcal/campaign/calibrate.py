@@ -566,8 +566,9 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
     on_path = loop.on_path
     if on_path is not None:
         # verified on a path beyond the box: that point, with no solution set around it
+        # (and none of the box's solve notes: its nearest point is not what was simulated)
         chosen = {by_name[n].parameter: float(on_path["point"][by_name[n].parameter]) for n in names}
-        desirability, ranges = float("nan"), {}
+        desirability, ranges, cond_notes = float("nan"), {}, []
     coded = {n: float(by_name[n].to_coded(chosen[by_name[n].parameter])) for n in names}
     point = np.array([coded[n] for n in names])
     reference_predicted = {}

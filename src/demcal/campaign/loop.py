@@ -605,7 +605,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 coded = box.to_coded([chosen[f.parameter] for f in f0])
                 predicted = {t.response: on_path.estimate for t in condition.targets}
                 state["on_path"] = {"point": dict(chosen), "box": box.index, "steps": on_path.steps,
-                                    "estimate": on_path.estimate}
+                                    "estimate": on_path.estimate,
+                                    "way": "ascent" if on_path.sign > 0 else "descent"}
             else:
                 # Solve on the corrected surface.
                 best, optimization, solve_notes = solve_condition(box.campaign(campaign), corrected, condition,

@@ -19,6 +19,8 @@ error bars. It is a separate row, never a replacement of the runs' own numbers.
 
 from __future__ import annotations
 
+import textwrap
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -138,9 +140,12 @@ def figure(comparisons: list[Comparison], response: str, label: str):
     for i, c in enumerate(comparisons):
         p = c.points
         err = p["sd"].fillna(c.pooled_sd).to_numpy()
+        # a profile with a stored linear bias has a long name: wrapped, so the legend
+        # stays inside the figure
+        name = textwrap.fill(f"{c.profile}: offset {c.offset:+.2f}°, RMS {c.rms:.2f}°, slope {c.slope:.2f}",
+                             52, subsequent_indent="  ")
         ax.errorbar(p["published"], p["demcal"], yerr=np.where(np.isfinite(err), err, 0.0), fmt="os^D"[i % 4],
-                    ms=4, lw=0.8, capsize=2, color=f"C{i}",
-                    label=f"{c.profile}: offset {c.offset:+.2f}°, RMS {c.rms:.2f}°, slope {c.slope:.2f}")
+                    ms=4, lw=0.8, capsize=2, color=f"C{i}", label=name)
         lo = min(lo, p["published"].min(), p["demcal"].min())
         hi = max(hi, p["published"].max(), p["demcal"].max())
     pad = 0.05 * (hi - lo)

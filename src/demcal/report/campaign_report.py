@@ -308,7 +308,10 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         for v in result.verdicts:
             goal = _goal_solved(result, v.response)
             solved = "the target"
-            if goal is not None and not v.target_reachable:
+            on_path = result.loop.on_path if result.loop is not None else None
+            if on_path is not None:
+                solved = f"the target, on the path from box {on_path['box']} (read off the path)"
+            elif goal is not None and not v.target_reachable:
                 solved = f"unreachable; solved for {goal.target:.2f}, the nearest the box reaches"
             pred.append({"condition": result.condition.name, "response": v.response, "target": v.target,
                          "goal solved": solved,
@@ -316,7 +319,8 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                          f"predicted at {ref} values": result.reference_predicted.get(v.response, np.nan),
                          f"{ref} values": flag,
                          "model reaches low": v.reachable[0], "model reaches high": v.reachable[1],
-                         "desirability": _target_desirability(result, v, goal)})
+                         "desirability": (_target_desirability(result, v, goal) if on_path is None
+                                          else np.nan)})
     report.table(_drop_empty(pd.DataFrame(pred).set_index("condition")), n("model_predictions"),
                  caption="Model predictions at the calibrated parameters"
                          + (f" and at the {ref} values" if any(r.reference_predicted for r in cal.conditions)
@@ -341,8 +345,8 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         if on_path is not None:
             steps = on_path["steps"]
             report.paragraph(
-                f"{result.condition.name}: verified at a point on the path of steepest ascent (or descent) "
-                f"from box {on_path['box']}, where the path crossed the lab target between its steps "
+                f"{result.condition.name}: verified at a point on the path of steepest "
+                f"{on_path.get('way', 'ascent')} from box {on_path['box']}, where the path crossed the lab target between its steps "
                 f"{steps[0]} and {steps[1]} (read off the path by linear interpolation: "
                 f"{on_path['estimate']:.2f}). The production runs there met the target, so no design was "
                 "laid around the point: it is one verified parameter set, with no solution set and no "
