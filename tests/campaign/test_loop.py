@@ -295,7 +295,7 @@ def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_pa
     assert second.chosen["particle.static_friction"] > 0.5  # beyond the box
     assert second.factor_ranges == {} and np.isnan(second.desirability)
     (verdict,) = second.verdicts
-    assert verdict.predicted == pytest.approx(40.5) and "on the path" in verdict.confirmation
+    assert "on the path of steepest ascent" in verdict.confirmation  # no interval: no model there
     data = cal.to_dict()["conditions"][1]
     assert data["on_path"]["steps"] == [2, 3] and data["desirability"] is None
     assert data["chosen"] == second.chosen
@@ -308,6 +308,28 @@ def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_pa
     assert "outside: verified at a point on the path of steepest ascent from box 0" in html
     assert "the target, on the path from box 0 (read off the path)" in html
     assert "Solving for inside" in html and "Solving for outside" not in html
+
+
+def test_a_stop_while_a_point_on_the_path_waits_names_that_point_and_no_runs(tmp_path):
+    """The path point's production runs are not in the store (a calibration killed
+    while they ran, replayed by `demcal report`): the condition stops unfinished at that
+    point, with none of an earlier point's runs, and the report does not call it
+    verified."""
+    import sqlite3
+
+    campaign, cal = calibrated(tmp_path, outside=40.5)
+    point = cal.conditions[1].chosen
+    with sqlite3.connect(campaign.store_path) as db:
+        db.execute("DELETE FROM runs WHERE kind = 'verification' AND label LIKE 'verify outside%'")
+    replay = calibrate(campaign, simulate=False, progress=False)
+    second = replay.conditions[1]
+    assert second.loop.status == "unfinished" and second.loop.on_path is not None
+    assert second.chosen == point and second.verification == []
+    from demcal.report.campaign_report import write_report
+
+    html = write_report(campaign, tmp_path / "report", [replay], figure_files=False).read_text()
+    assert "outside: the loop stopped (unfinished) at a point on the path" in html
+    assert "outside: verified at a point" not in html
 
 
 def test_a_point_on_the_path_that_misses_gets_its_box_after_all(tmp_path):

@@ -584,8 +584,8 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
             simulated=[], reachable=tuple(map(float, reachable_range(model))),
             interval=(prediction_interval(loop.models[target.response], model, point) if on_path is None
                       else (float("nan"), float("nan"))),
-            **({} if on_path is None else {"no_interval": "a point on the path of steepest ascent, beyond the "
-                                                          "box's model"}),
+            **({} if on_path is None else {"no_interval": f"a point on the path of steepest "
+                                                          f"{on_path.get('way', 'ascent')}, beyond the box's model"}),
         ))
     notes = list(cond_notes) + list(loop.notes)
     if loop.status != "verified":

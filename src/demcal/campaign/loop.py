@@ -626,6 +626,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                             f"of what the test reaches here; widen the factor limits or raise "
                             f"[calibration] box_moves", **state)
             if key != point_key:
+                # a new point: no run of it yet (a stop before they finish reports none,
+                # not the last point's)
+                state.update(prod=[], specs=[])
                 noise = production_noise(campaign, records(), production, responses)
                 point_key = key
                 replicates = first_batch(noise, condition.targets, first_replicates, cfg.min_replicates)
@@ -716,9 +719,12 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
         missed = (point_key, t, mean)
         if pending is not None:
             # the point on the path missed: lay the new box's design around the crossing
-            # after all (the classic method), with what the point taught in the discrepancy
-            state.pop("on_path", None)
-            if (turned := _turned_back(pending, boxes, box, t, condition)) is not None:
+            # after all (the classic method), with what the point taught in the discrepancy;
+            # the result no longer names that point (nor an older solve's)
+            for name in ("on_path", "best", "optimization"):
+                state.pop(name, None)
+            state.update(prod=[], specs=[])
+            if (turned := _turned_back(pending, boxes, box, t, condition, missed=True)) is not None:
                 notes.append(turned)
                 pending = None
                 continue
@@ -957,7 +963,8 @@ class PathEnd:
     steps: tuple = ()  #: the path steps the point lies between (1 = the box's model at its edge)
 
 
-def _turned_back(end: PathEnd, boxes: Sequence[Box], box: Box, target, condition) -> str | None:
+def _turned_back(end: PathEnd, boxes: Sequence[Box], box: Box, target, condition,
+                 missed: bool = False) -> str | None:
     """Why no box is laid where the path ended, or None.
 
     A path that ends inside a box the loop has already been in has turned back: the
@@ -976,10 +983,12 @@ def _turned_back(end: PathEnd, boxes: Sequence[Box], box: Box, target, condition
     if back is None:
         return None
     way = "ascent" if end.sign > 0 else "descent"
+    how = (f"crossing {target.response} = {target.mean:g} where the production runs missed it" if missed
+           else f"without crossing {target.response} = {target.mean:g}")
     return (f"{condition.name}: the path of steepest {way} from box {box.index} turns back into box {back.index} "
-            f"without crossing {target.response} = {target.mean:g} (its new box would lie inside box "
-            f"{back.index}): the response peaks between them, so no further move is made and box {box.index} "
-            f"is the last; the target lies beyond what the test reaches along the paths")
+            f"{how} (its new box would lie inside box {back.index}): the response peaks between them, so no "
+            f"further move is made and box {box.index} is the last; the target lies beyond what the test "
+            f"reaches along the paths")
 
 
 def _lay_box(campaign, moved: Box, run, records, budget, history, iteration):

@@ -344,14 +344,18 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         on_path = result.loop.on_path if result.loop is not None else None
         if on_path is not None:
             steps = on_path["steps"]
-            report.paragraph(
-                f"{result.condition.name}: verified at a point on the path of steepest "
-                f"{on_path.get('way', 'ascent')} from box {on_path['box']}, where the path crossed the lab target between its steps "
-                f"{steps[0]} and {steps[1]} (read off the path by linear interpolation: "
-                f"{on_path['estimate']:.2f}). The production runs there met the target, so no design was "
-                "laid around the point: it is one verified parameter set, with no solution set and no "
-                "factor ranges. Lay a design around it (set [calibration] verify_on_path = false) to map "
-                "the other settings that give the same angle.")
+            where = (f"a point on the path of steepest {on_path.get('way', 'ascent')} from box {on_path['box']}, "
+                     f"where the path, read at the production profile and interpolated linearly between its steps "
+                     f"{steps[0]} and {steps[1]}, crosses the lab target")
+            if result.loop.status == "verified":
+                report.paragraph(
+                    f"{result.condition.name}: verified at {where}. The production runs there met the target, so "
+                    "no design was laid around the point: it is one verified parameter set, with no solution set "
+                    "and no factor ranges. Lay a design around it (set [calibration] verify_on_path = false) to "
+                    "map the other settings that give the same angle.")
+            else:
+                report.paragraph(f"{result.condition.name}: the loop stopped ({result.loop.status}) at {where}: "
+                                 f"{result.loop.reason}.")
             continue
         title = f"Solving for {result.condition.name} (solution 1, the star, is simulated)"
         substitutes = [f"the lab's {v.response} {v.target:g} is out of reach, so the goal is {goal.target:.2f}"
