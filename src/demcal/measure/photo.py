@@ -166,10 +166,17 @@ def _read(path) -> np.ndarray:
                 return np.asarray(im)
     except Exception:  # not for Pillow: skimage says what is wrong
         pass
+    import warnings
+
     from skimage import io
 
     try:
-        return io.imread(path)
+        with warnings.catch_warnings():
+            # imageio tries its plugins in turn on a file it cannot place (an empty one, a
+            # text file); the deprecated DICOM plugin warns on the way, which says nothing
+            # about the photo: the error below does
+            warnings.filterwarnings("ignore", message=".*DICOM.*", category=DeprecationWarning)
+            return io.imread(path)
     except Exception as exc:  # skimage/imageio raise many kinds
         raise DataError(f"cannot read photo '{path}' as an image ({type(exc).__name__}); "
                         "use a PNG, JPEG or TIFF file.") from None
