@@ -580,12 +580,12 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
         model = corrected.get(target.response, loop.models[target.response])
         verdicts.append(ResponseVerdict(
             response=target.response, target=target.mean, lab_sd=target.sd,
-            predicted=(float(model.predict(point[None, :])[0]) if on_path is None else float(on_path["estimate"])),
+            predicted=(float(model.predict(point[None, :])[0]) if on_path is None else target.mean),
             simulated=[], reachable=tuple(map(float, reachable_range(model))),
             interval=(prediction_interval(loop.models[target.response], model, point) if on_path is None
                       else (float("nan"), float("nan"))),
             **({} if on_path is None else {"no_interval": f"a point on the path of steepest "
-                                                          f"{on_path.get('way', 'ascent')}, beyond the box's model"}),
+                                                          f"{on_path['way']}, beyond the box's model"}),
         ))
     notes = list(cond_notes) + list(loop.notes)
     if loop.status != "verified":

@@ -406,7 +406,7 @@ class LoopResult:
     cheap_target: dict[str, float]
     #: set when the production point lies on a path of steepest ascent (no box around it):
     #: ``point`` (its parameters), ``box`` (the box the path left), ``steps`` (the two path
-    #: steps it lies between), ``estimate`` (the production response read off the path there)
+    #: steps it lies between), ``way`` ("ascent" or "descent")
     on_path: dict | None = None
 
     def corrected(self) -> dict:
@@ -603,9 +603,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             if on_path is not None:
                 chosen = dict(on_path.point)
                 coded = box.to_coded([chosen[f.parameter] for f in f0])
-                predicted = {t.response: on_path.estimate for t in condition.targets}
+                predicted = {t.response: t.mean for t in condition.targets}  # where the path reads the target
                 state["on_path"] = {"point": dict(chosen), "box": box.index, "steps": on_path.steps,
-                                    "estimate": on_path.estimate,
                                     "way": "ascent" if on_path.sign > 0 else "descent"}
             else:
                 # Solve on the corrected surface.
@@ -830,7 +829,7 @@ def _show(params: dict[str, float]) -> str:
 
 
 def _move(campaign, condition, box, model, target, lo, hi, limits, run, records, budget, history, iteration,
-          moves, cheap, cfg, production=None):
+          moves, cheap, cfg, production):
     """Follow the steepest path from ``box`` toward ``target``; the new box, or
     ``(status, reason)`` when the loop must stop.
 
@@ -893,7 +892,7 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
             by_step.setdefault(j, []).append(float(rec.responses[response]))
     measured = [float(np.mean(by_step[j])) if j in by_step else np.nan for j in ks[1:]]
     shift = [0.0] * len(measured)
-    if production is not None and production != cheap and isinstance(model, CorrectedSurface):
+    if production != cheap and isinstance(model, CorrectedSurface):
         shift = [float(model.predict(x)) - float(model.model.predict(x)) for x in points[1:]]
     ys = [float(model.predict(points[0]))] + [m + d for m, d in zip(measured, shift)]
     said = ", ".join(f"{y:.2f}" for y in measured)
@@ -944,22 +943,22 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                         + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})))
     if point is None:
         return PathEnd(moved, response, sign)
-    return PathEnd(moved, response, sign, point, float(cheap_at), float(target), steps)
+    return PathEnd(moved, response, sign, point, float(cheap_at), steps)
 
 
 @dataclass(frozen=True)
 class PathEnd:
     """Where a path of steepest ascent (or descent) met its target: the new box around
     the crossing (its design not yet run) and, when two path points bracket the target,
-    the crossing point itself, read off the path by linear interpolation between them:
-    its parameters, the cheap response there and the production estimate (the target)."""
+    the crossing point itself, read off the path by linear interpolation between them
+    (where the production reading meets the target): its parameters and the cheap
+    response there."""
 
     box: Box
     response: str
     sign: float  #: +1 ascent, -1 descent
     point: dict[str, float] | None = None
     cheap: float = float("nan")
-    estimate: float = float("nan")
     steps: tuple = ()  #: the path steps the point lies between (1 = the box's model at its edge)
 
 

@@ -7,11 +7,11 @@ run pays Python's dispatch once per neighbour-list period instead of twice per s
 results are bitwise those of the step-by-step path. It stops early, right after a
 drift, when the neighbour list must be rebuilt (a sphere moved more than half the skin
 since the last build, counting the walls' travel, or a position became NaN); the host
-then rebuilds and finishes that step. Walls that move by a constant-velocity translation or a constant-rate rotation
-are placed at every step's time by :func:`~demcal.geometry.placement.place_moving`;
-the others keep their geometry during the call (the
-host only uses it while no other wall needs re-placing). ``travel_per_step`` bounds how
-far any wall point moves in a step.
+then rebuilds and finishes that step. Walls that move by a constant-velocity
+translation or a constant-rate rotation are placed at every step's time by
+:func:`~demcal.geometry.placement.place_moving`; the others keep their geometry during
+the call (the host only uses it while no other wall needs re-placing).
+``travel_per_step`` bounds how far any wall point moves in a step.
 
 :func:`run_steps_split` is the same loop for several threads: each kernel runs over
 fixed contiguous chunks of bodies in a numba ``prange`` (each chunk evaluates the pair

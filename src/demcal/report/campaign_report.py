@@ -344,7 +344,7 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         on_path = result.loop.on_path if result.loop is not None else None
         if on_path is not None:
             steps = on_path["steps"]
-            where = (f"a point on the path of steepest {on_path.get('way', 'ascent')} from box {on_path['box']}, "
+            where = (f"a point on the path of steepest {on_path['way']} from box {on_path['box']}, "
                      f"where the path, read at the production profile and interpolated linearly between its steps "
                      f"{steps[0]} and {steps[1]}, crosses the lab target")
             if result.loop.status == "verified":
