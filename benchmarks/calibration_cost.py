@@ -1,7 +1,7 @@
 """What a finished calibration spent: the runs its loop read, by kind and profile, with
 their recorded wall times, against a full design at the production profile.
 
-    python benchmarks/calibration_cost.py CAMPAIGN.toml [--production paper] [--full-runs 23 --run-s 269]
+    python benchmarks/calibration_cost.py CAMPAIGN.toml [--profile medium] [--production paper] [--full-runs 23 --run-s 269]
 
 Nothing is run: the loop is replayed from the store (``calibrate(simulate=False)``),
 which reads exactly the runs the loop asked for, in its order. The loop does not hand
@@ -25,6 +25,7 @@ from pathlib import Path
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("campaign", type=Path)
+    ap.add_argument("--profile", help="the design profile the calibration used (default: the campaign's)")
     ap.add_argument("--production", help="the production profile the calibration used (default: the campaign's)")
     ap.add_argument("--full-runs", type=int, help="runs of the full design to compare with (e.g. 17 + 6 = 23)")
     ap.add_argument("--run-s", type=float, help="run-seconds of one production run at the idle pace")
@@ -44,6 +45,8 @@ def main(argv=None) -> int:
         return original(self, keys)
 
     campaign = load_campaign(args.campaign)
+    if args.profile:
+        campaign = campaign.with_profile(args.profile)
     if args.production:
         campaign = dataclasses.replace(campaign, calibration=dataclasses.replace(
             campaign.calibration, production=args.production))

@@ -20,6 +20,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 STUDY = "benchmarks/studies/bench-profiles-2026-11-25"
 BEYOND = "benchmarks/studies/bias-beyond-box-2026-11-27"
+PROXY = "benchmarks/studies/incline-cheap-proxy-2026-11-27"
 #: (test, response, cheap, production, study files, date measured)
 ENTRIES = [
     # Seven Table 7 points (mu' 0.4-0.6), and since the sixteenth session the four points
@@ -29,7 +30,15 @@ ENTRIES = [
     # inside, so what resists at the base raises the quick angle more; docs/validation.md).
     ("incline", "sliding_angle_deg", "quick", "paper",
      [f"{STUDY}/results-incline-and-quick.jsonl", f"{STUDY}/results-designs-device.jsonl",
-      f"{BEYOND}/results-quick.jsonl", f"{BEYOND}/results-paper.jsonl"], "2026-11-27"),
+      f"{BEYOND}/results-quick.jsonl", f"{BEYOND}/results-paper.jsonl",
+      f"{PROXY}/results-paper-device.jsonl"], "2026-11-27"),
+    # The incline's medium profile (a bed of 1,000 particles, about six layers, at 5 deg/s):
+    # the same eleven points, five seeds each, against the paper runs above (two more seeds
+    # at eight of them, eighteenth session).
+    ("incline", "sliding_angle_deg", "medium", "paper",
+     [f"{STUDY}/results-incline-and-quick.jsonl", f"{STUDY}/results-designs-device.jsonl",
+      f"{BEYOND}/results-paper.jsonl", f"{PROXY}/results-paper-device.jsonl",
+      f"{PROXY}/results-quick-1000.jsonl"], "2026-11-27"),
     # The funnel's paper - quick difference changes sign with the rolling friction (type A:
     # -15 deg at 0.3, +9 to +12 deg at 0.1; docs/validation.md): measure() finds the slope in
     # particle.rolling_friction and stores the bias as linear in it, with the points' scatter.
@@ -40,13 +49,24 @@ ENTRIES = [
 TARGET = ROOT / "src" / "demcal" / "data" / "profile_bias.json"
 
 
+def _relabel(row: dict) -> dict:
+    """A study run as ``--profile quick --set particles.count=1000`` (5 deg/s, nothing else
+    changed) is a run of the incline's medium profile, which is exactly that (the same bits:
+    ``tests/bench/test_profiles.py``); the study files keep what was run."""
+    s = row.get("set", {})
+    if (row.get("test") == "incline" and row.get("profile") == "quick" and s.get("particles.count") == 1000
+            and "incline.tilt_rate" not in s):
+        row = dict(row, profile="medium", set={k: v for k, v in s.items() if k != "particles.count"})
+    return row
+
+
 def build() -> str:
     sys.path.insert(0, str(ROOT / "src"))
     from demcal.bench.profiles import measure
 
     out = []
     for test, response, cheap, production, files, date in ENTRIES:
-        rows = [json.loads(line) for f in files if (ROOT / f).is_file()
+        rows = [_relabel(json.loads(line)) for f in files if (ROOT / f).is_file()
                 for line in (ROOT / f).read_text().splitlines() if line.strip()]
         try:
             bias = measure(test, response, cheap, production, rows, source=", ".join(files), measured=date)

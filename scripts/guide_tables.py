@@ -53,8 +53,9 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("experiment", "test"): "**required**. The virtual test: `demcal bench --list` names them "
                             "(table *The virtual tests* below).",
     ("experiment", "profile"): "the test's profile for the design runs: `tiny` (a smoke test), "
-                               "`quick` (default) or `paper`. `--profile` on the command line "
-                               "overrides it.",
+                               "`quick` (default), `paper`, or a test's own (the incline's `medium`: "
+                               "the paper bed's response for a tenth of its cost). `--profile` on "
+                               "the command line overrides it.",
     ("experiment", "plugins"): "list of module names that register extra virtual tests, found in "
                                "the campaign's folder or installed packages; imported only by the "
                                "commands that simulate (`run`, `calibrate`, `demo`). Default `[]`.",

@@ -37,3 +37,19 @@ def test_demo_runs_calibrates_and_reports(tmp_path, monkeypatch, capsys):
     # A second demo resumes: nothing is simulated again.
     assert main(["demo", "--out", str(tmp_path / "out"), "--profile", "tiny", "--workers", "2"]) == 0
     assert "29 already done" in capsys.readouterr().err
+
+
+def test_the_paper_demo_designs_the_incline_at_medium_and_the_funnel_at_quick():
+    """`demcal demo --profile paper`: designs at the cheapest profile that stands in for
+    the paper one (the incline's medium: within 1 deg of it, docs/validation.md; the funnel
+    has no medium and designs at quick), verification at paper; other profiles are both."""
+    from demcal.campaign.config import load_campaign
+    from demcal.cli.demo import _with_profiles, examples_dir
+
+    sliding = load_campaign(examples_dir() / "sliding.toml")
+    repose = load_campaign(examples_dir() / "repose.toml")
+    for campaign, cheap in ((sliding, "medium"), (repose, "quick")):
+        paper = _with_profiles(campaign, "paper")
+        assert (paper.profile, paper.calibration.production) == (cheap, "paper")
+        tiny = _with_profiles(campaign, "tiny")
+        assert (tiny.profile, tiny.calibration.production) == ("tiny", "tiny")

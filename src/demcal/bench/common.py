@@ -73,6 +73,9 @@ from demcal.errors import ConfigError
 from demcal.geometry.motion import Motion
 
 PROFILES = ("tiny", "quick", "paper")
+#: a profile some tests add between quick and paper (the incline's: its response within
+#: 1 deg of the paper profile's at a tenth of the cost, docs/validation.md)
+MEDIUM = "medium"
 #: the contact-model presets and rolling models the engine declares
 CONTACT_MODELS = preset_names()
 ROLLING_MODELS = rolling_names()
@@ -82,8 +85,11 @@ SHAPES = ("two-sphere", "sphere")
 G = 9.81
 
 
-def per_profile(profile: str, tiny, quick, paper):
-    """Pick a default by profile."""
+def per_profile(profile: str, tiny, quick, paper, medium=None):
+    """Pick a default by profile; ``medium`` only for a test that declares that profile
+    (None: the quick value)."""
+    if profile == MEDIUM:
+        return quick if medium is None else medium
     return {"tiny": tiny, "quick": quick, "paper": paper}[profile]
 
 
@@ -206,7 +212,7 @@ def standard_settings(profile: str, counts, own: list[Setting], step_fraction, m
     """The table of a test that simulates a population of particles: the material keys,
     the particle keys with ``particles.count`` from ``counts``, the test's ``own`` keys and
     the time keys; ``counts``, ``step_fraction`` and ``max_time`` are (tiny, quick, paper)
-    defaults."""
+    defaults, with a fourth for a test's medium profile (else the quick one)."""
     return (material_settings(film=film)
             + particle_settings(profile, per_profile(profile, *counts))
             + own

@@ -2,7 +2,7 @@
 
 ::
 
-    demcal bench NAME [--profile tiny|quick|paper] [--set KEY=VALUE ...] [--seed N]
+    demcal bench NAME [--profile tiny|quick|paper|medium (incline)] [--set KEY=VALUE ...] [--seed N]
                       [--out DIR] [--vtk] [--json]
     demcal bench NAME --help      # every KEY with its default and unit
     demcal bench --list           # the tests
@@ -38,7 +38,8 @@ def register(subparsers) -> None:
     parser.add_argument("name", nargs="?", metavar="NAME",
                         help=f"the test: {', '.join(_TESTS)}")
     parser.add_argument("--profile", default="quick",
-                        help="tiny (seconds), quick (default; 10-40 s) or paper (the paper's scale)")
+                        help="tiny (seconds), quick (default; 10-40 s), paper (the paper's scale), or a test's "
+                             "own: the incline's medium (about 25 s; within 1 deg of paper)")
     parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                         help="override a setting (repeatable); see `demcal bench NAME --help`")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

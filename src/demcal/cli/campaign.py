@@ -37,7 +37,8 @@ def register(subparsers) -> None:
         help="write the campaign's HTML report and its tables (CSV, JSON)",
         description="Write one self-contained HTML report with every table and figure, plus CSV "
                     "and JSON of each table, into the campaign's work folder.")
-    _common(report, profile_help="report the runs of this bench profile: tiny, quick or paper "
+    _common(report, profile_help="report the runs of this bench profile: tiny, quick, paper or a test's own "
+                                 "(the incline's medium) "
                                  "(default: the campaign file's [experiment] profile, quick if it names "
                                  "none); nothing is run")
     report.add_argument("--out", type=Path, help="report folder (default: WORKDIR/report)")
@@ -53,7 +54,8 @@ def register(subparsers) -> None:
 
 
 def _common(parser: argparse.ArgumentParser,
-            profile_help: str = "bench profile: tiny, quick or paper (default: the campaign file's "
+            profile_help: str = "bench profile: tiny, quick, paper or a test's own (the incline's medium) "
+                                "(default: the campaign file's "
                                 "[experiment] profile, quick if it names none)") -> None:
     parser.add_argument("campaign", type=Path, help="campaign file (TOML)")
     parser.add_argument("--profile", help=profile_help)
