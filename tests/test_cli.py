@@ -126,7 +126,7 @@ def _help(command: str) -> str:
 @pytest.mark.parametrize("command", ["run", "calibrate", "report"])
 def test_profile_help_names_the_choices_and_the_default(command):
     text = _help(command)
-    assert "tiny, quick or paper" in text
+    assert "tiny, quick, paper or a test's own (the incline's medium)" in text
     assert "default: the campaign file's [experiment] profile" in text
 
 

@@ -455,3 +455,58 @@ def test_discrepancy_is_a_bias_then_a_gaussian_process():
     assert surface.predict(np.zeros(3)) == pytest.approx(30.0 + 3.0 + 1.5, abs=0.2)
     assert surface.gradient(np.zeros(3))[0] == pytest.approx(1.5, abs=0.3)
     assert surface.y[0] == pytest.approx(30.0 + d.bias)
+
+
+def test_the_limits_stop_the_path_but_the_box_reaches_the_window_so_it_is_solved_at_its_edge(tmp_path):
+    """Hard limits on every factor: from box 1 the path cannot move at all, and box 1
+    reaches about 39 deg, into the window 40.5 ± 1.5 but not its middle half. The loop
+    solves at the box's edge and verifies there (39.7 at the limits' corner), as when the
+    moves are spent, instead of calling the target out of reach; a target whose window
+    the box does not reach (45, the test above) still stops plainly."""
+    campaign, cal = calibrated(tmp_path, outside=40.5, hard=True)
+    second = cal.conditions[1]
+    assert second.loop.status == "verified", second.loop.reason
+    assert any("the parameters' limits stop the path from it, so box 1 reaches" in n
+               and "solved at the box's edge" in n for n in second.notes), second.notes
+    assert [s.stage for s in second.loop.history if s.stage == "production"]
+    assert second.chosen["particle.static_friction"] <= 0.6 + 1e-12
+    assert abs(np.mean(second.verdicts[0].simulated) - 40.5) <= 1.5
+
+
+@pytest.mark.parametrize("mean, verified", [(40.5, True), (45.0, False)])
+def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_noise(tmp_path, mean, verified):
+    """Five path points: the path from box 0 ends at the hard limits' corner (true angle
+    39.7), read there as 39.4 at the production profile. A window 40.5 ± 1 lies within
+    that reading's noise: the point is measured at production before the target is
+    called out of reach, and meets it (no box laid, no solution set). For 45 ± 1 it
+    does not, and the loop stops as before, with no production run."""
+    path = write(tmp_path, outside=mean, hard=True, calibration="path_points = 5\n")
+    text = path.read_text().replace(f"mean = {mean}, sd = 1.5", f"mean = {mean}, sd = 1.0")
+    path.write_text(text)
+    campaign = parse_campaign(text, path)
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
+    second = cal.conditions[1]
+    production = [s for s in second.loop.history if s.stage == "production"]
+    if not verified:
+        assert second.loop.status == "out of reach" and not production
+        assert "the steepest path from box 0 ends at the limits" in second.loop.reason
+        return
+    assert second.loop.status == "verified", second.loop.reason
+    assert [b.index for b in second.loop.boxes] == [0]
+    assert "at the end of the path of steepest ascent from box 0, where the parameters' limits stop it" \
+        in second.loop.reason
+    assert second.loop.on_path["limit"] and second.loop.on_path["steps"] == (5, 5)
+    assert second.chosen == {"particle.restitution": 0.75, "particle.static_friction": 0.6,
+                             "particle.rolling_friction": 0.35}
+    assert "at the end of the path from box 0 (step 5, at the parameters' limits)" in production[0].text
+    (verdict,) = second.verdicts
+    assert verdict.predicted == pytest.approx(second.loop.on_path["reading"]) and verdict.predicted < 39.5
+    assert "the end of the path of steepest ascent" in verdict.confirmation
+    again = calibrate(campaign, simulate=False, progress=False).conditions[1]
+    assert again.chosen == second.chosen and again.loop.on_path == second.loop.on_path
+    from demcal.report.campaign_report import write_report
+
+    html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()
+    assert "outside: verified at the end of the path of steepest ascent from box 0: its step 5" in html
+    assert "the nearest the test reaches: the end of the path from box 0" in html

@@ -580,12 +580,14 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
         model = corrected.get(target.response, loop.models[target.response])
         verdicts.append(ResponseVerdict(
             response=target.response, target=target.mean, lab_sd=target.sd,
-            predicted=(float(model.predict(point[None, :])[0]) if on_path is None else target.mean),
+            predicted=(float(model.predict(point[None, :])[0]) if on_path is None
+                       else float(on_path.get("reading", target.mean))),
             simulated=[], reachable=tuple(map(float, reachable_range(model))),
             interval=(prediction_interval(loop.models[target.response], model, point) if on_path is None
                       else (float("nan"), float("nan"))),
-            **({} if on_path is None else {"no_interval": f"a point on the path of steepest "
-                                                          f"{on_path['way']}, beyond the box's model"}),
+            **({} if on_path is None else {"no_interval": f"{'the end of' if on_path.get('limit') else 'a point on'} "
+                                                          f"the path of steepest {on_path['way']}, beyond the "
+                                                          f"box's model"}),
         ))
     notes = list(cond_notes) + list(loop.notes)
     if loop.status != "verified":

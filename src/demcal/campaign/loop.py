@@ -32,8 +32,11 @@ boxes' designs, production runs -- carries those settings:
    fitted with it. Where two path points bracket the target, the crossing is
    verified first (``verify_on_path``) and the box is laid only if it misses. When the
    path ends at the limits without crossing, the condition stops: the target is out of
-   the test's reach; when it turns back into an earlier box (the response peaks
-   between them), no further move is made (:func:`_turned_back`).
+   the test's reach, unless the lab window lies within the noise of the path's best
+   point, which is then measured at the production profile first (verified there, or
+   out of reach with that figure: :func:`_end_in_reach`); when it turns back into an
+   earlier box (the response peaks between them), no further move is made
+   (:func:`_turned_back`).
 3. **Production runs** at the solution nearest the box centre, with replicates (their
    seed-to-seed sd, pooled over every production point, is the noise; once it is known,
    a new point's first batch is the fewest replicates it says are enough, between
@@ -538,7 +541,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     hold = None
     missed = None  # (point, target, mean) of the last production point outside the lab band
     pending: PathEnd | None = None  # a path crossing verified before its box's design is laid
-    turned = None  # why no further move is made, when a path turned back into an earlier box
+    #: why no further move is made (a path turned back into an earlier box, or the limits
+    #: stop it while the box reaches into the window): (phrase, the stop's reason)
+    turned: tuple[str, str] | None = None
     while True:
         on_path = None
         if hold is None:  # else: the same point again, with more replicates
@@ -562,7 +567,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 # No move left, but the box reaches into each lab window (not its middle
                 # half): the verification accepts any mean inside the window, so solve at
                 # the box's edge and verify there rather than stop.
-                why = ("a path turned back, so" if turned else f"the {cfg.box_moves} box moves allowed are spent and")
+                why = (f"{turned[0]}, so" if turned else f"the {cfg.box_moves} box moves allowed are spent and")
                 for t, lo, hi in misses:
                     note = (f"{condition.name}: {why} box "
                             f"{box.index} reaches {t.response} {lo:.2f} to {hi:.2f} with the discrepancy, into "
@@ -574,7 +579,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             if outside is not None:
                 t, lo, hi = outside
                 if turned is not None:
-                    return stop(OUT_OF_REACH, turned, **state)
+                    return stop(OUT_OF_REACH, turned[1], **state)
                 if moves >= cfg.box_moves:
                     return stop(OUT_OF_REACH if cfg.box_moves == 0 else ITERATIONS,
                                 f"the target {t.response} = {t.mean:g} lies outside what box {box.index} reaches "
@@ -584,14 +589,21 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 moved = _move(campaign, condition, box, corrected[t.response], t.mean, lo, hi, limits, run,
                               records, budget, history, iteration, moves, cheap, cfg, production)
                 if isinstance(moved, tuple):
+                    if moved[0] == OUT_OF_REACH and all(in_window(*m) for m in misses):
+                        # the limits stop the path, but this box reaches into each lab window:
+                        # solved at its edge, as when the moves are spent
+                        turned = ("the parameters' limits stop the path from it", moved[1])
+                        continue
                     return stop(*moved, **state)
-                moves += 1
+                if moved.limit is None:  # (a path's end at the limits is measured, not moved to)
+                    moves += 1
                 if cfg.verify_on_path and moved.point is not None and len(condition.targets) == 1:
                     # The path crossed the target between two of its points: verify there
                     # first; the new box's design is laid only if that point misses.
                     pending = on_path = moved
-                elif (turned := _turned_back(moved, boxes, box, t, condition)) is not None:
-                    notes.append(turned)
+                elif (back := _turned_back(moved, boxes, box, t, condition)) is not None:
+                    notes.append(back)
+                    turned = ("a path turned back", back)
                     continue
                 else:
                     laid = _lay_box(campaign, moved.box, run, records, budget, history, iteration)
@@ -606,6 +618,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 predicted = {t.response: t.mean for t in condition.targets}  # where the path reads the target
                 state["on_path"] = {"point": dict(chosen), "box": box.index, "steps": on_path.steps,
                                     "way": "ascent" if on_path.sign > 0 else "descent"}
+                if on_path.limit is not None:  # the path's end at the limits, short of the target
+                    state["on_path"].update(limit=True, reading=on_path.reading)
+                    predicted = {on_path.response: on_path.reading}
             else:
                 # Solve on the corrected surface.
                 best, optimization, solve_notes = solve_condition(box.campaign(campaign), corrected, condition,
@@ -681,8 +696,11 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             inside = t.sd is None or abs(mean - t.mean) <= t.sd
             narrow = t.sd is None or half < t.sd
             verdict.append((t, mean, half, inside, narrow, sd))
-            where = (f" on the path from box {box.index} (between steps {pending.steps[0]} and "
-                     f"{pending.steps[1]})" if pending is not None else "")
+            where = ("" if pending is None else
+                     f" at the end of the path from box {box.index} (step {pending.steps[0]}, at the parameters' "
+                     f"limits)" if pending.limit is not None else
+                     f" on the path from box {box.index} (between steps {pending.steps[0]} and "
+                     f"{pending.steps[1]})")
             history.append(Step(iteration, box.index, "production", new,
                                 f"{production} x{len(values)}{where}: {mean:.2f} ± {half:.2f} (95 %; "
                                 + (f"seed sd {sd:.2f} pooled over the production points, df {df}" if df > 0
@@ -693,8 +711,11 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
         if all(v[3] and v[4] for v in verdict):
             return stop(VERIFIED, "the production mean lies inside the lab's mean ± sd and its 95 % "
                         "interval is narrower than the lab sd"
-                        + (f", at a point on the path of steepest {'ascent' if pending.sign > 0 else 'descent'} "
-                           f"from box {box.index} (no design was laid around it, so there is no solution set)"
+                        + (f", at {'the end of' if pending.limit is not None else 'a point on'} the path of steepest "
+                           f"{'ascent' if pending.sign > 0 else 'descent'} from box {box.index}"
+                           + (", where the parameters' limits stop it short of the lab mean" if pending.limit
+                              is not None else "")
+                           + " (no design was laid around it, so there is no solution set)"
                            if pending is not None else ""), **state)
         if all(v[3] for v in verdict):
             # Inside, but not yet sure: more replicates where the noise asks for them.
@@ -716,6 +737,10 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             continue
         t, mean, *_ = next(v for v in verdict if not v[3])
         missed = (point_key, t, mean)
+        if pending is not None and pending.limit is not None:
+            # the path's best point at the limits, measured: the window is out of reach
+            return stop(OUT_OF_REACH, f"{pending.limit}; its production runs there gave {mean:.2f}, outside "
+                        f"{t.mean:g} ± {t.sd:g}", **state)
         if pending is not None:
             # the point on the path missed: lay the new box's design around the crossing
             # after all (the classic method), with what the point taught in the discrepancy;
@@ -723,8 +748,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             for name in ("on_path", "best", "optimization"):
                 state.pop(name, None)
             state.update(prod=[], specs=[])
-            if (turned := _turned_back(pending, boxes, box, t, condition, missed=True)) is not None:
-                notes.append(turned)
+            if (back := _turned_back(pending, boxes, box, t, condition, missed=True)) is not None:
+                notes.append(back)
+                turned = ("a path turned back", back)
                 pending = None
                 continue
             laid = _lay_box(campaign, pending.box, run, records, budget, history, iteration)
@@ -920,9 +946,12 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     if crossing is None:
         if at_limit or len(points) < cfg.path_points + 1:
             best = np.nanmax(ys) if sign > 0 else np.nanmin(ys)
-            return OUT_OF_REACH, (f"{response} = {target:g} lies beyond what the test reaches within the "
-                                  f"parameters' physical limits: the steepest path from box {box.index} ends at "
-                                  f"the limits at {best:.2f}")
+            reason = (f"{response} = {target:g} lies beyond what the test reaches within the "
+                      f"parameters' physical limits: the steepest path from box {box.index} ends at "
+                      f"the limits at {best:.2f}")
+            end = _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, ks, limits, cfg,
+                                reason)
+            return (OUT_OF_REACH, reason) if end is None else end
         crossing = points[-1]
     point = None
     if bracket is not None and not np.all(np.abs(crossing) <= 1 + INSIDE_TOL):
@@ -946,6 +975,39 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     return PathEnd(moved, response, sign, point, float(cheap_at), steps)
 
 
+def _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, ks, limits, cfg, reason):
+    """The path's best simulated point as a :class:`PathEnd` to verify, when the path ends
+    at the parameters' limits without crossing the target but that point's production
+    reading lies within its own 95 % noise of the lab window; else None.
+
+    Such a reading may be the window's edge met within the noise (the paper-sized incline
+    saturates at 27-28 deg with the 14.1 % particles, where that target's window starts
+    at 27.26): whether the test reaches the window is then a question for the production
+    profile, not for one cheap run, so the loop measures it there before it calls the
+    target out of reach. The noise is the box model's residual sd (one cheap run's scatter
+    about the surface) with the discrepancy's standard error."""
+    from demcal.campaign.calibrate import _round as round_parameter
+
+    target = next((t for t in condition.targets if t.response == model.response), None)
+    if not cfg.verify_on_path or len(condition.targets) != 1 or target is None or not target.sd:
+        return None
+    simulated = [i for i in range(1, len(ys)) if np.isfinite(ys[i])]
+    if not simulated:
+        return None
+    i = max(simulated, key=lambda j: sign * ys[j])
+    se = 0.0
+    if isinstance(model, CorrectedSurface) and np.isfinite(model.discrepancy.bias_se):
+        se = model.discrepancy.bias_se
+    noise = 1.96 * math.sqrt(max(float(getattr(model, "mse", 0.0)), 0.0) + se * se)
+    edge = target.mean - sign * target.sd
+    if sign * (ys[i] - edge) < -noise:
+        return None
+    actual = _clean(box.to_actual(points[i]), limits)
+    point = {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
+    return PathEnd(box, model.response, sign, point, float(measured[i - 1]), (ks[i], ks[i]),
+                   limit=reason, reading=float(ys[i]))
+
+
 @dataclass(frozen=True)
 class PathEnd:
     """Where a path of steepest ascent (or descent) met its target: the new box around
@@ -960,6 +1022,10 @@ class PathEnd:
     point: dict[str, float] | None = None
     cheap: float = float("nan")
     steps: tuple = ()  #: the path steps the point lies between (1 = the box's model at its edge)
+    #: why the path stopped at the parameters' limits short of the target, when the point
+    #: is its best simulated step, measured because the lab window is within its noise
+    limit: str | None = None
+    reading: float = float("nan")  #: the path's production reading at the point
 
 
 def _turned_back(end: PathEnd, boxes: Sequence[Box], box: Box, target, condition,

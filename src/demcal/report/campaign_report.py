@@ -309,7 +309,10 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
             goal = _goal_solved(result, v.response)
             solved = "the target"
             on_path = result.loop.on_path if result.loop is not None else None
-            if on_path is not None:
+            if on_path is not None and on_path.get("limit"):
+                solved = (f"the nearest the test reaches: the end of the path from box {on_path['box']}, at the "
+                          f"parameters' limits")
+            elif on_path is not None:
                 solved = f"the target, on the path from box {on_path['box']} (read off the path)"
             elif goal is not None and not v.target_reachable:
                 solved = f"unreachable; solved for {goal.target:.2f}, the nearest the box reaches"
@@ -347,6 +350,11 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
             where = (f"a point on the path of steepest {on_path['way']} from box {on_path['box']}, "
                      f"where the path, read at the production profile and interpolated linearly between its steps "
                      f"{steps[0]} and {steps[1]}, crosses the lab target")
+            if on_path.get("limit"):
+                where = (f"the end of the path of steepest {on_path['way']} from box {on_path['box']}: its step "
+                         f"{steps[0]}, where the parameters' limits stop it short of the lab mean (read there at "
+                         f"the production profile: {on_path['reading']:.2f}, within the noise of the lab window, "
+                         f"so it was measured before the target was called out of reach)")
             if result.loop.status == "verified":
                 report.paragraph(
                     f"{result.condition.name}: verified at {where}. The production runs there met the target, so "
