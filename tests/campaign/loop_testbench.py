@@ -42,7 +42,7 @@ class FidelityDouble:
             "test.sleep_s": Setting("test.sleep_s", 0.0, "s", low=0.0),
             # the cheap profile's bias grows by this much per unit of mu above 0.4 (a
             # discrepancy the loop cannot know from the points near the box)
-            "test.bias_slope": Setting("test.bias_slope", 0.0, "deg", low=0.0),
+            "test.bias_slope": Setting("test.bias_slope", 0.0, "deg", low=-100.0),
             "test.curvature": Setting("test.curvature", 8.0, "deg", low=0.0),
         }
 

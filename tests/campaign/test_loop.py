@@ -469,28 +469,41 @@ def test_the_limits_stop_the_path_but_the_box_reaches_the_window_so_it_is_solved
     assert any("the parameters' limits stop the path from it, so box 1 reaches" in n
                and "solved at the box's edge" in n for n in second.notes), second.notes
     assert [s.stage for s in second.loop.history if s.stage == "production"]
-    assert second.chosen["particle.static_friction"] <= 0.6 + 1e-12
+    assert second.loop.on_path is None and [b.index for b in second.loop.boxes] == [0, 1]
     assert abs(np.mean(second.verdicts[0].simulated) - 40.5) <= 1.5
 
 
-@pytest.mark.parametrize("mean, verified", [(40.5, True), (45.0, False)])
-def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_noise(tmp_path, mean, verified):
+@pytest.mark.parametrize("mean, slope, outcome", [(40.5, 0.0, "verified"), (41.5, -5.0, "missed"),
+                                                   (45.0, 0.0, "not measured")])
+def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_noise(tmp_path, mean, slope,
+                                                                                    outcome):
     """Five path points: the path from box 0 ends at the hard limits' corner (true angle
     39.7), read there as 39.4 at the production profile. A window 40.5 ± 1 lies within
     that reading's noise: the point is measured at production before the target is
-    called out of reach, and meets it (no box laid, no solution set). For 45 ± 1 it
-    does not, and the loop stops as before, with no production run."""
-    path = write(tmp_path, outside=mean, hard=True, calibration="path_points = 5\n")
+    called out of reach, and meets it (no box laid, no solution set). With the cheap
+    profile's bias shrinking as mu grows (slope -5) the path reads 40.3 there, within the
+    noise of 41.5 ± 1, and the production runs (40.0) miss: out of reach, with that
+    figure. For 45 ± 1 the window is beyond the noise, and the loop stops as before,
+    with no production run."""
+    path = write(tmp_path, outside=mean, hard=True, bias_slope=slope, calibration="path_points = 5\n")
     text = path.read_text().replace(f"mean = {mean}, sd = 1.5", f"mean = {mean}, sd = 1.0")
+    assert text != path.read_text()
     path.write_text(text)
     campaign = parse_campaign(text, path)
     run_campaign(campaign, workers=1, progress=False)
     cal = calibrate(campaign, workers=1, progress=False)
     second = cal.conditions[1]
     production = [s for s in second.loop.history if s.stage == "production"]
-    if not verified:
+    if outcome == "not measured":
         assert second.loop.status == "out of reach" and not production
         assert "the steepest path from box 0 ends at the limits" in second.loop.reason
+        return
+    if outcome == "missed":
+        assert second.loop.status == "out of reach" and len(production) == 1
+        assert re.search(r"the steepest path from box 0 ends at the limits at 40\.\d\d; its production runs there "
+                         r"gave (\d+\.\d\d), outside 41\.5 ± 1$", second.loop.reason), second.loop.reason
+        assert second.loop.on_path["limit"] and [b.index for b in second.loop.boxes] == [0]
+        assert abs(np.mean(second.verdicts[0].simulated) - true_angle(0.75, 0.6, 0.35)) < 0.6
         return
     assert second.loop.status == "verified", second.loop.reason
     assert [b.index for b in second.loop.boxes] == [0]
@@ -505,6 +518,7 @@ def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_n
     assert "the end of the path of steepest ascent" in verdict.confirmation
     again = calibrate(campaign, simulate=False, progress=False).conditions[1]
     assert again.chosen == second.chosen and again.loop.on_path == second.loop.on_path
+    assert (again.loop.status, again.loop.reason) == (second.loop.status, second.loop.reason)
     from demcal.report.campaign_report import write_report
 
     html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()

@@ -409,7 +409,9 @@ class LoopResult:
     cheap_target: dict[str, float]
     #: set when the production point lies on a path of steepest ascent (no box around it):
     #: ``point`` (its parameters), ``box`` (the box the path left), ``steps`` (the two path
-    #: steps it lies between), ``way`` ("ascent" or "descent")
+    #: steps it lies between), ``way`` ("ascent" or "descent"); at the path's end at the
+    #: limits (:func:`_end_in_reach`) also ``limit`` (True) and ``reading`` (the path's
+    #: production reading there), and ``steps`` is that step twice
     on_path: dict | None = None
 
     def corrected(self) -> dict:
@@ -590,9 +592,12 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                               records, budget, history, iteration, moves, cheap, cfg, production)
                 if isinstance(moved, tuple):
                     if moved[0] == OUT_OF_REACH and all(in_window(*m) for m in misses):
-                        # the limits stop the path, but this box reaches into each lab window:
-                        # solved at its edge, as when the moves are spent
-                        turned = ("the parameters' limits stop the path from it", moved[1])
+                        # no path leads on (the limits stop it, or the model is flat), but
+                        # this box reaches into each lab window: solved at its edge, as when
+                        # the moves are spent
+                        why = ("the parameters' limits stop the path from it" if "physical limits" in moved[1]
+                               else "no path leads on from it")
+                        turned = (why, moved[1])
                         continue
                     return stop(*moved, **state)
                 if moved.limit is None:  # (a path's end at the limits is measured, not moved to)
@@ -738,9 +743,17 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
         t, mean, *_ = next(v for v in verdict if not v[3])
         missed = (point_key, t, mean)
         if pending is not None and pending.limit is not None:
-            # the path's best point at the limits, measured: the window is out of reach
-            return stop(OUT_OF_REACH, f"{pending.limit}; its production runs there gave {mean:.2f}, outside "
-                        f"{t.mean:g} ± {t.sd:g}", **state)
+            # the path's best point at the limits, measured and missed
+            reason = f"{pending.limit}; its production runs there gave {mean:.2f}, outside {t.mean:g} ± {t.sd:g}"
+            if not all(in_window(*m) for m in misses):
+                return stop(OUT_OF_REACH, reason, **state)
+            # the box still reaches into the window: solved at its edge after all
+            for name in ("on_path", "best", "optimization"):
+                state.pop(name, None)
+            state.update(prod=[], specs=[])
+            turned = ("the parameters' limits stop the path from it", reason)
+            pending = None
+            continue
         if pending is not None:
             # the point on the path missed: lay the new box's design around the crossing
             # after all (the classic method), with what the point taught in the discrepancy;
@@ -996,8 +1009,9 @@ def _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, k
         return None
     i = max(simulated, key=lambda j: sign * ys[j])
     se = 0.0
-    if isinstance(model, CorrectedSurface) and np.isfinite(model.discrepancy.bias_se):
-        se = model.discrepancy.bias_se
+    if isinstance(model, CorrectedSurface):  # the discrepancy's sd at the point (box-0 coded)
+        se = float(model.discrepancy(points[i] * model._scale + model._shift)[1])
+        se = se if np.isfinite(se) else 0.0
     noise = 1.96 * math.sqrt(max(float(getattr(model, "mse", 0.0)), 0.0) + se * se)
     edge = target.mean - sign * target.sd
     if sign * (ys[i] - edge) < -noise:
@@ -1014,7 +1028,10 @@ class PathEnd:
     the crossing (its design not yet run) and, when two path points bracket the target,
     the crossing point itself, read off the path by linear interpolation between them
     (where the production reading meets the target): its parameters and the cheap
-    response there."""
+    response there. With ``limit`` set it is instead the path's best point where the
+    parameters' limits stopped it short of the target (:func:`_end_in_reach`): ``box`` is
+    then the box the path left (no move), ``steps`` that step twice and ``reading`` its
+    production reading."""
 
     box: Box
     response: str

@@ -354,10 +354,12 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                 where = (f"the end of the path of steepest {on_path['way']} from box {on_path['box']}: its step "
                          f"{steps[0]}, where the parameters' limits stop it short of the lab mean (read there at "
                          f"the production profile: {on_path['reading']:.2f}, within the noise of the lab window, "
-                         f"so it was measured before the target was called out of reach)")
+                         f"so it was measured at the production profile rather than the target being called out "
+                         f"of reach)")
             if result.loop.status == "verified":
                 report.paragraph(
-                    f"{result.condition.name}: verified at {where}. The production runs there met the target, so "
+                    f"{result.condition.name}: verified at {where}. The production runs there met the "
+                    f"{'lab window' if on_path.get('limit') else 'target'}, so "
                     "no design was laid around the point: it is one verified parameter set, with no solution set "
                     "and no factor ranges. Lay a design around it (set [calibration] verify_on_path = false) to "
                     "map the other settings that give the same angle.")
