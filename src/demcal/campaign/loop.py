@@ -83,6 +83,9 @@ PATH_SEED = 20_000
 BOX_SEED = 50_000
 #: A point counts as inside a box up to this far beyond its coded edge.
 INSIDE_TOL = 1e-6
+#: the words every "the limits stop the path" reason of :func:`_move` carries (the loop
+#: tells those stops from a flat model's by them)
+AT_LIMITS = "within the parameters' physical limits"
 
 #: Why a condition's loop ended.
 VERIFIED, OUT_OF_REACH, BUDGET, ITERATIONS, NOISE, UNFINISHED, NOT_VERIFIED = (
@@ -124,6 +127,15 @@ class Box:
         return {"index": self.index, "reason": self.reason,
                 "low": {f.parameter: significant(v) for f, v in zip(campaign.factors, self.low)},
                 "high": {f.parameter: significant(v) for f, v in zip(campaign.factors, self.high)}}
+
+
+def _parameters(campaign: Campaign, box: Box, coded, limits: np.ndarray) -> dict[str, float]:
+    """The campaign's factor settings at a point in ``box``'s coded units, held inside the
+    physical limits and rounded as the store keys them."""
+    from demcal.campaign.calibrate import _round as round_parameter
+
+    actual = _clean(box.to_actual(coded), limits)
+    return {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
 
 
 def _clean(values, limits: np.ndarray) -> np.ndarray:
@@ -334,14 +346,18 @@ class CorrectedSurface:
         y = self.model.y + self.discrepancy.bias
         return y if self.discrepancy.slope is None else y + self._line(np.atleast_2d(self.model.x))
 
+    def to_box0(self, coded):
+        """Coded units of this box -> those of box 0 (the discrepancy's)."""
+        return np.asarray(coded) * self._scale + self._shift
+
     def _gp(self, pts: np.ndarray) -> np.ndarray:
-        return self.discrepancy.gp.predict(pts * self._scale + self._shift)
+        return self.discrepancy.gp.predict(self.to_box0(pts))
 
     def _line(self, coded: np.ndarray):
         """The stored slope's part (box coded in, per point out), 0 without one."""
         if self.discrepancy.slope is None:
             return 0.0
-        line = self.discrepancy.linear(np.atleast_2d(coded) * self._scale + self._shift)
+        line = self.discrepancy.linear(self.to_box0(np.atleast_2d(coded)))
         return line[0] if coded.ndim == 1 else line
 
     def predict(self, coded):
@@ -595,7 +611,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                         # no path leads on (the limits stop it, or the model is flat), but
                         # this box reaches into each lab window: solved at its edge, as when
                         # the moves are spent
-                        why = ("the parameters' limits stop the path from it" if "physical limits" in moved[1]
+                        why = ("the parameters' limits stop the path from it" if AT_LIMITS in moved[1]
                                else "no path leads on from it")
                         turned = (why, moved[1])
                         continue
@@ -904,13 +920,11 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
         points.append(x.copy())
         ks.append(j)
     # Step 1 lies in the box: the model predicts it; the rest are simulated.
-    from demcal.campaign.calibrate import _round as round_parameter
     from demcal.campaign.runner import point_settings
 
     specs, where = [], []
     for j, x in zip(ks[1:], points[1:]):
-        actual = _clean(box.to_actual(x), limits)
-        params = {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
+        params = _parameters(campaign, box, x, limits)
         for r in range(cfg.path_replicates):
             seed = campaign.seed + PATH_SEED + 997 * box.index + 10 * j + r
             specs.append(RunSpec("path", f"path box {box.index} step {j}" + (f" r{r + 1}" if r else ""),
@@ -918,9 +932,9 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
             where.append(j)
     response = model.response
     if not specs:
-        return OUT_OF_REACH, (f"{response} = {target:g} lies beyond what the test reaches within the parameters' "
-                              f"physical limits: they stop the path of steepest {'ascent' if sign > 0 else 'descent'} "
-                              f"from box {box.index} at once")
+        return OUT_OF_REACH, (f"{response} = {target:g} lies beyond what the test reaches {AT_LIMITS}: they "
+                              f"stop the path of steepest {'ascent' if sign > 0 else 'descent'} from box "
+                              f"{box.index} at once")
     done, new, stopped = _spend(specs, f"{campaign.name} {condition.name} path", f"the path runs of box {box.index}",
                            campaign, run, records, budget)
     if stopped:
@@ -959,9 +973,8 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     if crossing is None:
         if at_limit or len(points) < cfg.path_points + 1:
             best = np.nanmax(ys) if sign > 0 else np.nanmin(ys)
-            reason = (f"{response} = {target:g} lies beyond what the test reaches within the "
-                      f"parameters' physical limits: the steepest path from box {box.index} ends at "
-                      f"the limits at {best:.2f}")
+            reason = (f"{response} = {target:g} lies beyond what the test reaches {AT_LIMITS}: the steepest "
+                      f"path from box {box.index} ends at the limits at {best:.2f}")
             end = _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, ks, limits, cfg,
                                 reason)
             return (OUT_OF_REACH, reason) if end is None else end
@@ -969,8 +982,7 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     point = None
     if bracket is not None and not np.all(np.abs(crossing) <= 1 + INSIDE_TOL):
         below, i, frac = bracket
-        actual = _clean(box.to_actual(crossing), limits)
-        point = {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
+        point = _parameters(campaign, box, crossing, limits)
         cheap_at = cheap_ys[below] + frac * (cheap_ys[i] - cheap_ys[below])
         steps = (ks[below], ks[i])
     if np.all(np.abs(crossing) <= 1 + INSIDE_TOL):  # no further than the box itself
@@ -999,8 +1011,6 @@ def _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, k
     profile, not for one cheap run, so the loop measures it there before it calls the
     target out of reach. The noise is the box model's residual sd (one cheap run's scatter
     about the surface) with the discrepancy's standard error."""
-    from demcal.campaign.calibrate import _round as round_parameter
-
     target = next((t for t in condition.targets if t.response == model.response), None)
     if not cfg.verify_on_path or len(condition.targets) != 1 or target is None or not target.sd:
         return None
@@ -1010,14 +1020,13 @@ def _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, k
     i = max(simulated, key=lambda j: sign * ys[j])
     se = 0.0
     if isinstance(model, CorrectedSurface):  # the discrepancy's sd at the point (box-0 coded)
-        se = float(model.discrepancy(points[i] * model._scale + model._shift)[1])
+        se = float(model.discrepancy(model.to_box0(points[i]))[1])
         se = se if np.isfinite(se) else 0.0
     noise = 1.96 * math.sqrt(max(float(getattr(model, "mse", 0.0)), 0.0) + se * se)
     edge = target.mean - sign * target.sd
     if sign * (ys[i] - edge) < -noise:
         return None
-    actual = _clean(box.to_actual(points[i]), limits)
-    point = {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
+    point = _parameters(campaign, box, points[i], limits)
     return PathEnd(box, model.response, sign, point, float(measured[i - 1]), (ks[i], ks[i]),
                    limit=reason, reading=float(ys[i]))
 
