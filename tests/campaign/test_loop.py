@@ -384,13 +384,37 @@ def test_bad_loop_settings_are_one_sentence(tmp_path, edit, message):
     assert str(info.value) == message
 
 
-def test_bad_production_profile_exits_2(tmp_path):
+def _files(folder: Path) -> dict[str, bytes]:
+    return {str(f.relative_to(folder)): f.read_bytes() for f in sorted(folder.rglob("*")) if f.is_file()}
+
+
+@pytest.mark.parametrize("edit, args, message", [
+    (('production = "quick"', 'production = "huge"'), [], "'production' = 'huge' is not known; choose one of: tiny, quick"),
+    (None, ["--production", "huge"], "unknown profile 'huge' for test-fidelity; choose one of: tiny, quick."),
+    (("box_moves = 4", "box_moves = 4\n[budget]\nruns = 0"), [], "'runs' must be at least 1, got 0."),
+    (("box_moves = 4", "box_moves = 4\n[budget]\ncpu_hours = 0"), [], "'cpu_hours' must be positive, got 0"),
+    (("high = 0.5\n", "high = 0.5\nhard_high = 0.45\n"), [], "hard limits must contain low and high."),
+])
+def test_bad_loop_input_exits_2_and_keeps_the_store(tmp_path, edit, args, message):
+    """Issue 17's bad inputs, through the command a user types: one sentence on stderr,
+    exit status 2, no traceback, and the store of the campaign's finished runs byte for
+    byte as it was."""
     path = write(tmp_path)
-    path.write_text(path.read_text().replace('production = "quick"', 'production = "huge"'))
-    proc = subprocess.run([sys.executable, "-m", "demcal", "calibrate", str(path)], capture_output=True, text=True)
-    assert proc.returncode == 2
-    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
-    assert "'production' = 'huge' is not known; choose one of: tiny, quick" in proc.stderr
+    campaign = parse_campaign(path.read_text(), path)
+    run_campaign(campaign, workers=1, progress=False)
+    store = Path(campaign.store_path)
+    folder = store if store.is_dir() else store.parent
+    before = _files(folder)
+    assert before
+    if edit is not None:
+        assert edit[0] in path.read_text()
+        path.write_text(path.read_text().replace(edit[0], edit[1], 1))
+    proc = subprocess.run([sys.executable, "-m", "demcal", "calibrate", str(path), *args],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2, proc.stderr
+    assert "Traceback" not in proc.stderr and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+    assert message in proc.stderr
+    assert _files(folder) == before
 
 
 def test_sigkill_mid_loop_resumes_without_rerunning(tmp_path):
