@@ -135,11 +135,20 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("calibration", "min_replicates"): "fewest first replicates at a new point once the production "
                                        "noise is known (default 1): the first batch is the fewest seeds "
                                        "whose 95 % half-width with the pooled sd is below the lab sd, "
-                                       "between this and `replicates`.",
+                                       "between this and `replicates`. The noise is known from the start "
+                                       "where a stored profile study replicated the production profile (the "
+                                       "paper-profile incline: 0.74° over 22 df), and is pooled with the "
+                                       "campaign's own production runs (docs/calibration.md).",
     ("calibration", "max_replicates"): "most production replicates at one point (default 10, "
                                        "at least 2 and at least the first replicates).",
     ("calibration", "iterations"): "re-solves on the corrected surface per condition (default 4).",
     ("calibration", "box_moves"): "most box moves per condition (default 3; 0: never move).",
+    ("calibration", "box_replicates"): "seeds per design point of a moved box (default `[runs] "
+                                       "replicates`). A moved box often lies where the target is near "
+                                       "the edge of what the test reaches and the effects are small "
+                                       "against the seed noise: two seeds there resolved the friction's "
+                                       "effect in the paper-profile incline's 14.1 % box where one did not "
+                                       "(docs/performance.md).",
     ("calibration", "path_points"): "cheap runs along the path of steepest ascent beyond the box "
                                     "edge, per move (default 3).",
     ("calibration", "path_replicates"): "seeds per path point (default 1).",

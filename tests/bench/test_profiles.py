@@ -110,6 +110,22 @@ def test_the_funnel_bias_is_stored_as_a_slope_in_the_rolling_friction():
     assert b.at({"particle.rolling_friction": 0.1})[0] > 5 > -5 > b.at({"particle.rolling_friction": 0.3})[0]
 
 
+def test_the_stored_studies_measure_the_paper_incline_noise_once_per_point():
+    """The paper-profile incline's seeds in the stored studies: 0.74 deg pooled over 22 df
+    (eleven points of two or three seeds). quick -> paper and medium -> paper share their
+    paper points; each counts once."""
+    import math
+
+    sd, df, runs = profiles.stored_noise("incline", "sliding_angle_deg", "paper")
+    assert df == 22 and runs == 33 and sd == pytest.approx(0.738, abs=0.005)
+    one = profiles.stored("incline", "sliding_angle_deg", "quick", "paper")
+    pts = [p for p in one.points if (p["production_n"] or 0) > 1]
+    assert df == sum(p["production_n"] - 1 for p in pts)
+    assert sd == pytest.approx(math.sqrt(sum((p["production_n"] - 1) * p["production_sd"] ** 2 for p in pts) / df))
+    assert math.isnan(profiles.stored_noise("repose-funnel", "repose_angle_deg", "paper")[0])  # one seed a point
+    assert profiles.stored_noise("incline", "sliding_angle_deg", "quick")[1] == 0  # no study's production
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("test, response, cheap, first", [("incline", "sliding_angle_deg", "quick", None),
                                                           ("repose-funnel", "repose_angle_deg", "quick", None),

@@ -152,6 +152,31 @@ def test_box_moves_to_a_target_outside_it(looped):
     assert data["production_profile"] == "quick" and data["cheap_profile"] == "tiny"
 
 
+def test_a_moved_box_takes_box_replicates_seeds_a_point(tmp_path):
+    """[calibration] box_replicates = 2: each moved box's design runs two seeds a point
+    (box 0 keeps [runs] replicates = 1), every seed its own, and the box's model is fitted
+    to both; a bad value is one sentence."""
+    from demcal.campaign.loop import fit_box
+
+    campaign, cal = calibrated(tmp_path, calibration="box_replicates = 2\n")
+    assert campaign.replicates == 1 and campaign.calibration.box_replicates == 2
+    result = cal.conditions[1]
+    assert result.loop.status == "verified", result.loop.reason
+    designs = [s for s in result.loop.history if s.stage == "design"]
+    assert designs and all("30 design runs" in s.text for s in designs)
+    with Store(campaign.store_path, readonly=True) as store:
+        box1 = [r for r in store.records() if r.kind == "design" and r.label.startswith("box 1 ")]
+        table = fit_box(campaign, result.loop.boxes[1], store.records(), "tiny")[-1]
+    assert len(box1) == 30 and len({r.seed for r in box1}) == 30
+    assert sum(r.label.endswith(" r2") for r in box1) == 15
+    assert len(table) >= 30  # both seeds of every point (and any path run inside the box)
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    path = write(bad, calibration="box_replicates = 0\n")
+    with pytest.raises(ConfigError, match=r"'box_replicates' must be at least 1, got 0\.$"):
+        parse_campaign(path.read_text(), path)
+
+
 def test_replay_runs_nothing_and_finds_the_same(looped, tmp_path, monkeypatch):
     campaign, cal = looped
     markers = tmp_path / "markers"
@@ -212,6 +237,38 @@ def test_a_new_points_first_batch_is_what_the_pooled_noise_asks_for(tmp_path, le
     # which would have asked for `replicates` = 2)
     assert int(re.search(r"pooled over the production points, df (\d+)", production[0].text)[1]) >= 1
     assert abs(production[-1].simulated - 34.0) <= 5.0
+
+
+def test_a_stored_study_of_the_production_noise_sizes_the_first_point(tmp_path, monkeypatch):
+    """A stored study that replicated the production profile (a stand-in here: seed sd
+    0.3 deg over 20 df) is the noise before the campaign has any: the first point gets
+    one run (t(20) x 0.3 = 0.63 against the lab sd 1.5), not a probe followed by
+    [verification] replicates = 2, and its interval pools the study's df with the
+    campaign's own. A campaign that fixes a setting other than a material value gets no
+    stored noise, as it gets no stored bias."""
+    import dataclasses
+
+    from demcal.bench import profiles
+    from demcal.campaign.loop import stored_noise
+
+    def fake(test, response, profile):
+        return (0.3, 20, 30) if (test, profile) == ("test-fidelity", "quick") else (float("nan"), 0, 0)
+
+    monkeypatch.setattr(profiles, "stored_noise", fake)
+    campaign, cal = calibrated(tmp_path, outside=34.0)
+    assert stored_noise(campaign, "quick", ["repose_angle_deg"]) == {"repose_angle_deg": (0.3, 20)}
+    assert stored_noise(campaign, "tiny", ["repose_angle_deg"]) == {}
+    fixed = dataclasses.replace(campaign, settings={**campaign.settings, "particles.count": 50})
+    assert stored_noise(fixed, "quick", ["repose_angle_deg"]) == {}
+    first = cal.conditions[0]
+    assert first.loop.status == "verified", first.loop.reason
+    production = [s for s in first.loop.history if s.stage == "production"]
+    # (without the stored noise: a probe, then 2 at the re-solved point, then one more)
+    assert [s.runs for s in production] == [1, 1]
+    assert "± 0.63 (95 %" in production[0].text
+    df = re.search(r"pooled over the production points and the stored study's, df (\d+)", production[-1].text)
+    assert df is not None and int(df[1]) >= 20, production[-1].text
+    assert abs(production[-1].simulated - 33.0) <= 1.5
 
 
 @pytest.mark.parametrize("measured, said", [((0.30, 0.32), True), ((0.0, 2.0), False)])
@@ -308,6 +365,56 @@ def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_pa
     assert "outside: verified at a point on the path of steepest ascent from box 0" in html
     assert "the target, on the path from box 0 (read off the path)" in html
     assert "Solving for inside" in html and "Solving for outside" not in html
+
+
+@pytest.mark.parametrize("rule", [True, False])
+def test_a_path_that_reads_inside_the_window_without_crossing_is_verified_at_its_nearest_step(tmp_path,
+                                                                                                monkeypatch, rule):
+    """The response peaks in mu (curvature 40) just below the lab mean 38.7 ± 1.5: the
+    path from box 0 reads 37.18, 37.98, 37.31, crossing nothing, its step 3 inside the
+    window. The loop measures that step at the production profile first and is done
+    (38.77, one run); without the rule it lays a 15-run box around the path's end."""
+    from demcal.campaign import loop
+
+    if not rule:
+        monkeypatch.setattr(loop, "_nearest_in_window", lambda *args: None)
+    campaign, cal = calibrated(tmp_path, outside=38.7, curvature=40.0, hard="ac")
+    second = cal.conditions[1]
+    assert second.loop.status == "verified", second.loop.reason
+    if not rule:
+        assert [s.stage for s in second.loop.history][:2] == ["path", "design"]
+        return
+    assert [(s.stage, s.runs) for s in second.loop.history] == [("path", 3), ("production", 1)]
+    assert [b.index for b in second.loop.boxes] == [0]
+    on_path = second.loop.on_path
+    assert on_path["steps"] == (3, 3) and on_path["nearest"] and on_path["reading"] == pytest.approx(37.98, abs=0.01)
+    assert "on the path from box 0 (step 3, its nearest to the target, read 37.98 inside the lab window)" in \
+        second.loop.history[1].text
+    assert "its step nearest the lab mean, which it did not cross" in second.loop.reason
+    assert abs(second.loop.history[1].simulated - 38.7) <= 1.5
+    again = calibrate(campaign, simulate=False, progress=False).conditions[1]  # replayed: the same
+    assert again.chosen == second.chosen and again.loop.on_path == second.loop.on_path
+    from demcal.report.campaign_report import write_report
+
+    html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()
+    assert "the lab window, at the path&#x27;s nearest step to the target from box 0 (read 37.98)" in html
+    assert "outside: verified at the step of the path of steepest ascent from box 0 nearest the lab target" in html
+
+
+def test_a_nearest_step_that_misses_lays_the_box_after_all(tmp_path):
+    """The cheap bench's bias grows with mu (bias_slope 8), so the path reads 2-3 deg low:
+    its nearest step, read 35.94 inside 36 ± 1.5, gives 38.99 at the production profile.
+    The loop then lays the box the classic method lays, learns the discrepancy there and
+    verifies on its corrected surface."""
+    campaign, cal = calibrated(tmp_path, outside=36.0, curvature=40.0, hard="ac", bias_slope=8.0)
+    second = cal.conditions[1]
+    assert second.loop.status == "verified", second.loop.reason
+    stages = [s.stage for s in second.loop.history]
+    assert stages[:3] == ["path", "production", "design"] and second.loop.on_path is None
+    assert "its nearest to the target, read 35.94 inside the lab window" in second.loop.history[1].text
+    assert second.loop.history[1].simulated > 36.0 + 1.5  # the nearest step missed
+    assert [b.index for b in second.loop.boxes] == [0, 1]
+    assert abs(second.loop.history[-1].simulated - 36.0) <= 1.5
 
 
 def test_a_stop_while_a_point_on_the_path_waits_names_that_point_and_no_runs(tmp_path):

@@ -136,6 +136,33 @@ def stored(test: str, response: str, cheap: str, production: str) -> ProfileBias
     return None
 
 
+def stored_noise(test: str, response: str, profile: str) -> tuple[float, int, int]:
+    """``(sd, df, runs)``: the seed-to-seed sd of ``profile``'s ``response`` pooled over the
+    distinct points that the stored studies with ``profile`` as their *production*
+    profile ran with two seeds or more, its degrees of freedom and the runs behind it;
+    ``(nan, 0, 0)`` where none did.
+
+    A study of a cheap and a production profile replicates its production runs to
+    measure the bias; the same runs measure the production bench's scatter between seeds
+    (the paper-profile incline: 0.74 deg pooled over eleven points, 22 df). The
+    calibration loop pools it with its own production runs
+    (:func:`demcal.campaign.loop.production_noise`), as a pure error measured in an
+    earlier experiment on the same bench. Two studies that share production points
+    (``quick`` and ``medium`` against ``paper``) count each point once."""
+    seen: dict[str, tuple[int, float]] = {}
+    for b in _load():
+        if (b.test, b.response, b.production) != (test, response, profile):
+            continue
+        for pt in b.points:
+            n, sd = int(pt.get("production_n") or 0), pt.get("production_sd")
+            key = json.dumps(pt.get("settings", {}), sort_keys=True)
+            if n > 1 and sd is not None and n > seen.get(key, (0, 0.0))[0]:
+                seen[key] = (n, float(sd))
+    df = sum(n - 1 for n, _ in seen.values())
+    ss = sum((n - 1) * sd * sd for n, sd in seen.values())
+    return (math.sqrt(ss / df) if df else float("nan")), df, sum(n for n, _ in seen.values())
+
+
 def applies(fixed: Mapping[str, object]) -> list[str]:
     """The fixed settings that keep a stored bias from applying (empty: it applies)."""
     return sorted(k for k in fixed if not k.startswith(MATERIAL_PREFIXES))

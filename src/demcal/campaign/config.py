@@ -23,7 +23,7 @@ example)::
                     [conditions.settings] KEY = VALUE, [conditions.reference] PARAMETER = VALUE
     [verification]  replicates, seed
     [calibration]   production, replicates, min_replicates, max_replicates, iterations,
-                    box_moves, path_points, path_replicates, verify_on_path (the closed loop of :mod:`demcal.campaign.loop`)
+                    box_moves, box_replicates, path_points, path_replicates, verify_on_path (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
@@ -86,7 +86,7 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
     "calibration": ("production", "replicates", "min_replicates", "max_replicates", "iterations", "box_moves",
-                    "path_points", "path_replicates", "verify_on_path"),
+                    "box_replicates", "path_points", "path_replicates", "verify_on_path"),
     "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
     "report": ("title", "reference_table", "captions"),
@@ -201,6 +201,10 @@ class CalibrationConfig:
     max_replicates: int = 10  #: most production replicates at one point
     iterations: int = 4  #: re-solves on the corrected surface per condition
     box_moves: int = 3  #: most box moves per condition
+    #: seeds per design point of a moved box (None: ``[runs] replicates``). A box is moved
+    #: when the target lies beyond the one before, often near the edge of what the test
+    #: reaches, where the factors' effects are small against the seed noise
+    box_replicates: int | None = None
     path_points: int = 3  #: runs along the steepest path beyond the box, per move
     path_replicates: int = 1  #: seeds per path point
     #: verify first at the point where the path crosses the target (between two of its
@@ -674,7 +678,7 @@ class _Loader:
         and the calibration loop's moved boxes and path runs (:mod:`demcal.campaign.loop`)."""
         from demcal.campaign.loop import BOX_SEED, PATH_SEED
 
-        design = self.design_runs * replicates
+        design = self.design_runs * max(replicates, calibration.box_replicates or 0)
         boxes = calibration.box_moves * len(conditions)
         return (BOX_SEED * boxes + design + PATH_SEED + 997 * boxes
                 + 10 * (calibration.path_points + 2) + calibration.path_replicates)
@@ -979,6 +983,8 @@ class _Loader:
             max_replicates=self.integer(data, "max_replicates", where, 10, 2),
             iterations=self.integer(data, "iterations", where, 4, 1),
             box_moves=self.integer(data, "box_moves", where, 3, 0),
+            box_replicates=(self.integer(data, "box_replicates", where, 1, 1) if "box_replicates" in data
+                            else None),
             path_points=self.integer(data, "path_points", where, 3, 1),
             path_replicates=self.integer(data, "path_replicates", where, 1, 1),
             verify_on_path=self.boolean(data, "verify_on_path", where, True),

@@ -38,8 +38,10 @@ boxes' designs, production runs -- carries those settings:
    earlier box (the response peaks between them), no further move is made
    (:func:`_turned_back`).
 3. **Production runs** at the solution nearest the box centre, with replicates (their
-   seed-to-seed sd, pooled over every production point, is the noise; once it is known,
-   a new point's first batch is the fewest replicates it says are enough, between
+   seed-to-seed sd, pooled over every production point, is the noise, with the stored
+   profile studies' replicated production runs pooled in where they measured this
+   test's production profile: :func:`stored_noise`; once it is known, a new point's
+   first batch is the fewest replicates it says are enough, between
    ``min_replicates`` and ``replicates``: :func:`first_batch`). While nothing is
    known of the discrepancy (the first point of a campaign whose production profile is
    not its cheap one) a single run probes it first: if it lands outside the lab band,
@@ -109,13 +111,16 @@ class Box:
     def half(self) -> np.ndarray:
         return 0.5 * (np.asarray(self.high) - np.asarray(self.low))
 
-    def campaign(self, campaign: Campaign) -> Campaign:
-        """The campaign with this box's factor levels (and its own design seeds)."""
+    def campaign(self, campaign: Campaign, replicates: int | None = None) -> Campaign:
+        """The campaign with this box's factor levels (and its own design seeds), with
+        ``replicates`` seeds per design point if given (a moved box: ``[calibration]
+        box_replicates``)."""
         if self.index == 0:
             return campaign
         factors = tuple(dataclasses.replace(f, low=significant(lo), high=significant(hi))
                         for f, lo, hi in zip(campaign.factors, self.low, self.high))
-        return dataclasses.replace(campaign, factors=factors, seed=campaign.seed + BOX_SEED * self.index)
+        return dataclasses.replace(campaign, factors=factors, seed=campaign.seed + BOX_SEED * self.index,
+                                   replicates=replicates or campaign.replicates)
 
     def to_coded(self, actual) -> np.ndarray:
         return (np.asarray(actual, float) - self.centre) / self.half
@@ -532,6 +537,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     first_replicates = cfg.replicates or campaign.verification_replicates
     budget = Budget(campaign)
     responses = [t.response for t in condition.targets]
+    noise_prior = stored_noise(campaign, production, responses)
     f0 = campaign.factors
     box = Box(0, tuple(f.low for f in f0), tuple(f.high for f in f0))
     boxes = [box]
@@ -642,6 +648,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 if on_path.limit is not None:  # the path's end at the limits, short of the target
                     state["on_path"].update(limit=True, reading=on_path.reading)
                     predicted = {on_path.response: on_path.reading}
+                elif on_path.nearest:  # the path's step nearest the target, inside the lab window
+                    state["on_path"].update(nearest=True, reading=on_path.reading)
+                    predicted = {on_path.response: on_path.reading}
             else:
                 # Solve on the corrected surface.
                 best, optimization, solve_notes = solve_condition(box.campaign(campaign), corrected, condition,
@@ -664,7 +673,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 # a new point: no run of it yet (a stop before they finish reports none,
                 # not the last point's)
                 state.update(prod=[], specs=[])
-                noise = production_noise(campaign, records(), production, responses)
+                noise = production_noise(campaign, records(), production, responses, noise_prior)
                 point_key = key
                 replicates = first_batch(noise, condition.targets, first_replicates, cfg.min_replicates)
                 if production != cheap and not any(residuals.values()) and replicates > 1:
@@ -705,7 +714,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             failed = [r for r in done if r.status != "done"]
             return stop(NOT_VERIFIED, f"{len(failed)} production runs failed ({failed[0].label}: "
                         f"{failed[0].error}); rerun them with --retry-failed", **state)
-        noise = production_noise(campaign, records(), production, responses)
+        noise = production_noise(campaign, records(), production, responses, noise_prior)
         verdict = []
         for t in condition.targets:
             values = np.array([r.responses[t.response] for r in ok])
@@ -720,11 +729,15 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             where = ("" if pending is None else
                      f" at the end of the path from box {box.index} (step {pending.steps[0]}, at the parameters' "
                      f"limits)" if pending.limit is not None else
+                     f" on the path from box {box.index} (step {pending.steps[0]}, its nearest to the target, read "
+                     f"{pending.reading:.2f} inside the lab window)" if pending.nearest else
                      f" on the path from box {box.index} (between steps {pending.steps[0]} and "
                      f"{pending.steps[1]})")
             history.append(Step(iteration, box.index, "production", new,
                                 f"{production} x{len(values)}{where}: {mean:.2f} ± {half:.2f} (95 %; "
-                                + (f"seed sd {sd:.2f} pooled over the production points, df {df}" if df > 0
+                                + (f"seed sd {sd:.2f} pooled over the production points"
+                                   + (" and the stored study's" if t.response in noise_prior else "")
+                                   + f", df {df}" if df > 0
                                    else "seed sd not known yet: no production point has two runs")
                                 + f") against {t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
                                 predicted=predicted[t.response], simulated=mean, half_width=half,
@@ -735,7 +748,8 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                         + (f", at {'the end of' if pending.limit is not None else 'a point on'} the path of steepest "
                            f"{'ascent' if pending.sign > 0 else 'descent'} from box {box.index}"
                            + (", where the parameters' limits stop it short of the lab mean" if pending.limit
-                              is not None else "")
+                              is not None else
+                              ", its step nearest the lab mean, which it did not cross" if pending.nearest else "")
                            + " (no design was laid around it, so there is no solution set)"
                            if pending is not None else ""), **state)
         if all(v[3] for v in verdict):
@@ -862,9 +876,11 @@ def _missing(specs, records) -> int:
 
 
 def production_noise(campaign: Campaign, records: Sequence[RunRecord], production: str,
-                     responses) -> dict[str, tuple[float, int]]:
+                     responses, prior: dict[str, tuple[float, int]] | None = None) -> dict[str, tuple[float, int]]:
     """Per response: the seed-to-seed sd of the production runs the loop has seen,
-    pooled over their points, and its df.
+    pooled over their points, and its df; with ``prior`` (response -> ``(sd, df)``, the
+    stored studies' scatter of the production profile: :func:`stored_noise`) pooled in
+    as further points.
 
     Every condition's points count, not only this condition's: the noise is the
     production bench's scatter at nearby material values, which a condition's fixed
@@ -875,8 +891,36 @@ def production_noise(campaign: Campaign, records: Sequence[RunRecord], productio
     for r in records:
         if r.status == "done" and r.kind == "verification" and r.test == campaign.test and r.profile == production:
             groups.setdefault(json.dumps(r.settings, sort_keys=True), []).append(r)
-    return {name: pooled_sd([r.responses[name] for r in rows if name in r.responses] for rows in groups.values())
-            for name in responses}
+    out = {}
+    for name in responses:
+        sd, df = pooled_sd([r.responses[name] for r in rows if name in r.responses] for rows in groups.values())
+        p_sd, p_df = (prior or {}).get(name, (float("nan"), 0))
+        if p_df > 0:
+            ss = (sd * sd * df if df else 0.0) + p_sd * p_sd * p_df
+            sd, df = math.sqrt(ss / (df + p_df)), df + p_df
+        out[name] = (sd, df)
+    return out
+
+
+def stored_noise(campaign: Campaign, production: str, responses) -> dict[str, tuple[float, int]]:
+    """Response -> ``(sd, df)`` of the production profile's seed-to-seed scatter as the
+    stored profile studies measured it (:func:`demcal.bench.profiles.stored_noise`),
+    where one applies to the campaign's fixed settings (the same rule as a stored bias:
+    material values only). With it the first production point is sized by a noise
+    already measured on the same bench instead of the ``[calibration] replicates`` asked
+    for at an unknown noise, and its 95 % interval uses those degrees of freedom too: on
+    the paper-profile incline (0.74 deg, 22 df, against lab sds of 2.6-3.2 deg) one run
+    decides a point. The campaign's own production runs join the pool as they come."""
+    from demcal.bench import profiles
+
+    if profiles.applies(campaign.settings):
+        return {}
+    out = {}
+    for name in responses:
+        sd, df, _ = profiles.stored_noise(campaign.test, name, production)
+        if df > 0:
+            out[name] = (sd, df)
+    return out
 
 
 def _show(params: dict[str, float]) -> str:
@@ -979,6 +1023,7 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                                 reason)
             return (OUT_OF_REACH, reason) if end is None else end
         crossing = points[-1]
+        nearest = _nearest_in_window(condition, model.response, sign, ys, cfg)
     point = None
     if bracket is not None and not np.all(np.abs(crossing) <= 1 + INSIDE_TOL):
         below, i, frac = bracket
@@ -996,8 +1041,44 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
                         f"({lo:.2f} to {hi:.2f}); the steepest path crossed it near "
                         + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})))
     if point is None:
+        if crossing is not None and nearest is not None:
+            return PathEnd(moved, response, sign, _parameters(campaign, box, points[nearest], limits),
+                           float(measured[nearest - 1]), (ks[nearest], ks[nearest]), reading=float(ys[nearest]),
+                           nearest=True)
         return PathEnd(moved, response, sign)
     return PathEnd(moved, response, sign, point, float(cheap_at), steps)
+
+
+def _nearest_in_window(condition, response: str, sign: float, ys, cfg) -> int | None:
+    """The path step to verify when the path ran its length without crossing the lab mean,
+    or None: its simulated step nearest the target in the target's direction (the
+    highest reading on an ascent), when that reading lies inside the lab window.
+
+    The verification accepts any production mean inside the window, so a path that
+    reaches into it has found what the classic method's next box would be laid to find:
+    the point is measured at the production profile first, and the box laid around the
+    path's end only if it misses (as after a missed crossing). (The paper-profile 14.1 %
+    sliding path from box 1 read 27.81, 30.39 and 28.84 at steps 2-4, inside 30.46 ±
+    3.2 and 0.07 short of its mean; the loop laid a 34-run box at step 4 whose model
+    then reached 27.19 at most, and stopped out of reach, nineteenth session.)"""
+    best = _best_step(condition, response, sign, ys, cfg)
+    if best is None:
+        return None
+    target, i = best
+    return i if abs(ys[i] - target.mean) <= target.sd else None
+
+
+def _best_step(condition, response: str, sign: float, ys, cfg):
+    """``(target, i)``: the condition's one lab target (with an sd) and the path's simulated
+    step read furthest toward it (``ys[0]`` is the box's own model), for verifying on the
+    path; None where the loop verifies only solved points or nothing was simulated."""
+    target = next((t for t in condition.targets if t.response == response), None)
+    if not cfg.verify_on_path or len(condition.targets) != 1 or target is None or not target.sd:
+        return None
+    simulated = [i for i in range(1, len(ys)) if np.isfinite(ys[i])]
+    if not simulated:
+        return None
+    return target, max(simulated, key=lambda j: sign * ys[j])
 
 
 def _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, ks, limits, cfg, reason):
@@ -1011,13 +1092,10 @@ def _end_in_reach(campaign, condition, box, model, sign, ys, measured, points, k
     profile, not for one cheap run, so the loop measures it there before it calls the
     target out of reach. The noise is the box model's residual sd (one cheap run's scatter
     about the surface) with the discrepancy's standard error."""
-    target = next((t for t in condition.targets if t.response == model.response), None)
-    if not cfg.verify_on_path or len(condition.targets) != 1 or target is None or not target.sd:
+    best = _best_step(condition, model.response, sign, ys, cfg)
+    if best is None:
         return None
-    simulated = [i for i in range(1, len(ys)) if np.isfinite(ys[i])]
-    if not simulated:
-        return None
-    i = max(simulated, key=lambda j: sign * ys[j])
+    target, i = best
     se = 0.0
     if isinstance(model, CorrectedSurface):  # the discrepancy's sd at the point (box-0 coded)
         se = float(model.discrepancy(model.to_box0(points[i]))[1])
@@ -1040,6 +1118,9 @@ class PathEnd:
     response there. With ``limit`` set it is instead the path's best point where the
     parameters' limits stopped it short of the target (:func:`_end_in_reach`): ``box`` is
     then the box the path left (no move), ``steps`` that step twice and ``reading`` its
+    production reading. With ``nearest`` set the path crossed nothing and the point is its
+    step nearest the target, read inside the lab window (:func:`_nearest_in_window`):
+    ``box`` is the box the classic method would lay next, ``reading`` the step's
     production reading."""
 
     box: Box
@@ -1052,6 +1133,9 @@ class PathEnd:
     #: is its best simulated step, measured because the lab window is within its noise
     limit: str | None = None
     reading: float = float("nan")  #: the path's production reading at the point
+    #: the path crossed nothing, and the point is its step nearest the target, read
+    #: inside the lab window (:func:`_nearest_in_window`); ``box`` is the moved box
+    nearest: bool = False
 
 
 def _turned_back(end: PathEnd, boxes: Sequence[Box], box: Box, target, condition,
@@ -1087,7 +1171,7 @@ def _lay_box(campaign, moved: Box, run, records, budget, history, iteration):
     ``(status, reason)`` when the loop must stop."""
     from demcal.campaign.runner import plan_design
 
-    plan = plan_design(moved.campaign(campaign))
+    plan = plan_design(moved.campaign(campaign, campaign.calibration.box_replicates))
     specs = [dataclasses.replace(s, label=f"box {moved.index} {s.label}") for s in plan.specs]
     done, added, stopped = _spend(specs, f"{campaign.name} box {moved.index} design",
                                   f"the design runs of box {moved.index}", campaign, run, records, budget)

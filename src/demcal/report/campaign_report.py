@@ -312,6 +312,9 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
             if on_path is not None and on_path.get("limit"):
                 solved = (f"the nearest the test reaches: the end of the path from box {on_path['box']}, at the "
                           f"parameters' limits")
+            elif on_path is not None and on_path.get("nearest"):
+                solved = (f"the lab window, at the path's nearest step to the target from box {on_path['box']} "
+                          f"(read {on_path['reading']:.2f})")
             elif on_path is not None:
                 solved = f"the target, on the path from box {on_path['box']} (read off the path)"
             elif goal is not None and not v.target_reachable:
@@ -356,10 +359,15 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                          f"the production profile: {on_path['reading']:.2f}, within the noise of the lab window, "
                          f"so it was measured at the production profile rather than the target being called out "
                          f"of reach)")
+            elif on_path.get("nearest"):
+                where = (f"the step of the path of steepest {on_path['way']} from box {on_path['box']} nearest the "
+                         f"lab target: its step {steps[0]}, which the path did not carry past the lab mean but read "
+                         f"inside the lab window at the production profile ({on_path['reading']:.2f}), so it was "
+                         f"measured there before a new box was laid")
             if result.loop.status == "verified":
                 report.paragraph(
                     f"{result.condition.name}: verified at {where}. The production runs there met the "
-                    f"{'lab window' if on_path.get('limit') else 'target'}, so "
+                    f"{'lab window' if on_path.get('limit') or on_path.get('nearest') else 'target'}, so "
                     "no design was laid around the point: it is one verified parameter set, with no solution set "
                     "and no factor ranges. Lay a design around it (set [calibration] verify_on_path = false) to "
                     "map the other settings that give the same angle.")
