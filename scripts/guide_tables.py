@@ -153,9 +153,15 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                     "edge, per move (default 3).",
     ("calibration", "path_replicates"): "seeds per path point (default 1).",
     ("calibration", "verify_on_path"): "where two path points bracket the target, verify first at the "
-                                       "crossing read off the path, and lay the moved box's design only "
-                                       "if it misses (default true; false: always lay the design, which "
-                                       "maps a solution set around the point).",
+                                       "crossing read off the path (where the path crosses nothing but "
+                                       "reads inside the lab window, at its step nearest the target), and "
+                                       "lay the moved box's design only if it misses (default true; false: "
+                                       "always lay the design, which maps a solution set around the point).",
+    ("calibration", "stored_noise"): "pool the stored profile studies' replicated production runs "
+                                     "into the production noise from the start (default true: the "
+                                     "paper-profile incline's 0.74° over 22 df, so one paper run can "
+                                     "decide a point; a point the campaign runs itself counts once). "
+                                     "false: the campaign's own runs only, as before 27 Nov 2026.",
     ("budget", "runs"): "most runs the calibration uses, its design included (default: no limit).",
     ("budget", "cpu_hours"): "most run hours, the sum of the runs' wall times (default: no limit).",
     ("executor", "kind"): "`local` (default: a pool of worker processes) or `dask`.",

@@ -112,8 +112,8 @@ def test_the_funnel_bias_is_stored_as_a_slope_in_the_rolling_friction():
 
 def test_the_stored_studies_measure_the_paper_incline_noise_once_per_point():
     """The paper-profile incline's seeds in the stored studies: 0.74 deg pooled over 22 df
-    (eleven points of two or three seeds). quick -> paper and medium -> paper share their
-    paper points; each counts once."""
+    (eleven points of three seeds). quick -> paper and medium -> paper share their paper
+    points; each counts once."""
     import math
 
     sd, df, runs = profiles.stored_noise("incline", "sliding_angle_deg", "paper")

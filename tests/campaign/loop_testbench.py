@@ -44,6 +44,8 @@ class FidelityDouble:
             # discrepancy the loop cannot know from the points near the box)
             "test.bias_slope": Setting("test.bias_slope", 0.0, "deg", low=-100.0),
             "test.curvature": Setting("test.curvature", 8.0, "deg", low=0.0),
+            # a run with this seed fails (0: none), e.g. one path step
+            "test.fail_seed": Setting("test.fail_seed", 0, "-", low=0),
         }
 
     def run(self, settings=None, seed=0, profile="quick", out_dir=None, vtk=False, progress=False):
@@ -55,6 +57,8 @@ class FidelityDouble:
         if markers:
             Path(markers, f"{profile}-{seed}-{e:.4f}-{mu:.4f}-{mu_r:.4f}.{uuid.uuid4().hex[:8]}").touch()
         time.sleep(s["test.sleep_s"])
+        if s["test.fail_seed"] and seed == s["test.fail_seed"]:
+            raise RuntimeError("the test double fails this seed")
         bias = BIAS + s["test.bias_slope"] * max(mu - 0.4, 0.0)
         angle = true_angle(e, mu, mu_r, s["test.curvature"]) - (bias if profile == "tiny" else 0.0)
         angle += np.random.default_rng(seed).normal(0.0, NOISE)

@@ -81,13 +81,14 @@ workers = {workers}
 
 
 def write(folder: Path, outside: float = 45.0, hard: bool | str = False, budget: str = "", workers: int = 1,
-          sleep: float = 0.0, bias_slope: float = 0.0, curvature: float = 0.0, calibration: str = "") -> Path:
+          sleep: float = 0.0, bias_slope: float = 0.0, curvature: float = 0.0, calibration: str = "",
+          fail_seed: int = 0) -> Path:
     """The loop campaign in ``folder``; ``hard``: hard limits on every factor (True) or on
     the factors named (e.g. "ac")."""
     hard_lines = {"hard_a": "hard_high = 0.75\n", "hard_b": "hard_high = 0.6\n", "hard_c": "hard_high = 0.35\n"}
     named = "abc" if hard is True else (hard or "")
     settings = "".join(f'"test.{k}" = {v}\n' for k, v in (("sleep_s", sleep), ("bias_slope", bias_slope),
-                                                          ("curvature", curvature)) if v)
+                                                          ("curvature", curvature), ("fail_seed", fail_seed)) if v)
     text = CAMPAIGN.format(outside=outside, budget=calibration + budget, workers=workers,
                            settings="[experiment.settings]\n" + settings if settings else "",
                            **{k: (v if k[-1] in named else "") for k, v in hard_lines.items()})
@@ -146,7 +147,8 @@ def test_box_moves_to_a_target_outside_it(looped):
     assert true_angle(*result.chosen.values()) == pytest.approx(45.0, abs=1.0)
     (verdict,) = result.verdicts
     assert abs(verdict.simulated_mean - 45.0) <= 1.5
-    assert "steepest path crossed it" in result.loop.boxes[1].reason
+    # (the path from box 0 reads short of 45 at all its steps: it crossed nothing)
+    assert "the steepest path ran its length toward it without crossing it" in result.loop.boxes[1].reason
     data = cal.to_dict()["conditions"][1]
     assert data["status"] == "verified" and len(data["boxes"]) == len(result.loop.boxes)
     assert data["production_profile"] == "quick" and data["cheap_profile"] == "tiny"
@@ -251,12 +253,15 @@ def test_a_stored_study_of_the_production_noise_sizes_the_first_point(tmp_path, 
     from demcal.bench import profiles
     from demcal.campaign.loop import stored_noise
 
-    def fake(test, response, profile):
-        return (0.3, 20, 30) if (test, profile) == ("test-fidelity", "quick") else (float("nan"), 0, 0)
+    # ten points of three seeds, sd 0.3 each: 0.3 over 20 df, at settings the campaign never runs
+    stand_in = [({"particle.static_friction": 5.0 + i}, 3, 0.3) for i in range(10)]
 
-    monkeypatch.setattr(profiles, "stored_noise", fake)
+    def fake(test, response, profile):
+        return stand_in if (test, profile) == ("test-fidelity", "quick") else []
+
+    monkeypatch.setattr(profiles, "noise_points", fake)
     campaign, cal = calibrated(tmp_path, outside=34.0)
-    assert stored_noise(campaign, "quick", ["repose_angle_deg"]) == {"repose_angle_deg": (0.3, 20)}
+    assert stored_noise(campaign, "quick", ["repose_angle_deg"]) == {"repose_angle_deg": stand_in}
     assert stored_noise(campaign, "tiny", ["repose_angle_deg"]) == {}
     fixed = dataclasses.replace(campaign, settings={**campaign.settings, "particles.count": 50})
     assert stored_noise(fixed, "quick", ["repose_angle_deg"]) == {}
@@ -415,6 +420,51 @@ def test_a_nearest_step_that_misses_lays_the_box_after_all(tmp_path):
     assert second.loop.history[1].simulated > 36.0 + 1.5  # the nearest step missed
     assert [b.index for b in second.loop.boxes] == [0, 1]
     assert abs(second.loop.history[-1].simulated - 36.0) <= 1.5
+
+
+def test_a_crossing_after_a_failed_path_step_lays_the_box(tmp_path):
+    """Step 2 of box 0's path fails (the double fails its seed) and step 3 crosses 40.5:
+    the crossing is not bracketed by two readings, so nothing is verified on the path and
+    the box is laid around it, as the classic method does (this crashed for a day in the
+    nineteenth session, when the nearest-step rule was added)."""
+    from demcal.campaign.loop import PATH_SEED
+
+    seed = 11 + PATH_SEED + 10 * 2  # [runs] seed + the path's offset + step 2 of box 0
+    campaign, cal = calibrated(tmp_path, outside=40.5, fail_seed=seed)
+    second = cal.conditions[1]
+    assert second.loop.status == "verified", second.loop.reason
+    assert [s.stage for s in second.loop.history][:2] == ["path", "design"]
+    assert second.loop.on_path is None
+    assert "the steepest path crossed it near" in second.loop.boxes[1].reason
+    with Store(campaign.store_path, readonly=True) as store:
+        assert [r.seed for r in store.records() if r.status == "failed"] == [seed]
+
+
+def test_the_stored_noise_leaves_out_the_points_the_campaign_ran_and_can_be_switched_off(tmp_path):
+    """A stored point whose settings the campaign's own production runs share counts once
+    (its runs may be those very runs); `stored_noise = false` uses none."""
+    import dataclasses
+
+    from demcal.campaign.loop import production_noise, stored_noise
+    from demcal.campaign.store import RunRecord
+
+    path = write(tmp_path)
+    campaign = parse_campaign(path.read_text(), path)
+    base = dict(id=0, key="", kind="verification", label="v", test="test-fidelity", profile="quick",
+                parameters={}, status="done", result={}, artifacts_dir=None, attempts=1, started_at=None,
+                finished_at=None, wall_s=1.0, engine_version=None, error=None, owner=None, pid=None, host=None,
+                heartbeat=None)
+    mine = {"particle.static_friction": 0.4, "particle.restitution": 0.6, "test.sleep_s": 0.0}
+    records = [RunRecord(**base, settings=mine, seed=s, responses={"angle": v}) for s, v in ((1, 30.0), (2, 31.0))]
+    prior = {"angle": [({"particle.static_friction": 0.4}, 3, 2.0), ({"particle.static_friction": 0.5}, 3, 1.0)]}
+    sd, df, own = production_noise(campaign, records, "quick", ["angle"], prior)["angle"]
+    # own: one point, (30, 31): ss 0.5, df 1; the stored 0.5 point: ss 2 x 1.0^2, df 2; the 0.4 one left out
+    assert (df, own) == (3, 1) and sd == pytest.approx(((0.5 + 2.0) / 3) ** 0.5)
+    assert production_noise(campaign, records, "quick", ["angle"])["angle"][1:] == (1, 1)
+    off = dataclasses.replace(campaign, calibration=dataclasses.replace(campaign.calibration, stored_noise=False))
+    assert stored_noise(off, "paper", ["repose_angle_deg"]) == {}
+    text = path.read_text().replace("box_moves = 4\n", "box_moves = 4\nstored_noise = false\n")
+    assert parse_campaign(text, path).calibration.stored_noise is False
 
 
 def test_a_stop_while_a_point_on_the_path_waits_names_that_point_and_no_runs(tmp_path):

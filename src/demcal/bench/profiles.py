@@ -136,31 +136,40 @@ def stored(test: str, response: str, cheap: str, production: str) -> ProfileBias
     return None
 
 
-def stored_noise(test: str, response: str, profile: str) -> tuple[float, int, int]:
-    """``(sd, df, runs)``: the seed-to-seed sd of ``profile``'s ``response`` pooled over the
-    distinct points that the stored studies with ``profile`` as their *production*
-    profile ran with two seeds or more, its degrees of freedom and the runs behind it;
-    ``(nan, 0, 0)`` where none did.
+def noise_points(test: str, response: str, profile: str) -> list[tuple[dict, int, float]]:
+    """``(settings, n, sd)`` of each distinct point that the stored studies with
+    ``profile`` as their *production* profile ran with two seeds or more: the seed-to-seed
+    scatter of that bench, measured where the studies measured the bias.
 
     A study of a cheap and a production profile replicates its production runs to
-    measure the bias; the same runs measure the production bench's scatter between seeds
-    (the paper-profile incline: 0.74 deg pooled over eleven points, 22 df). The
-    calibration loop pools it with its own production runs
-    (:func:`demcal.campaign.loop.production_noise`), as a pure error measured in an
-    earlier experiment on the same bench. Two studies that share production points
-    (``quick`` and ``medium`` against ``paper``) count each point once."""
-    seen: dict[str, tuple[int, float]] = {}
+    measure the bias; the same runs measure the production bench's scatter between seeds.
+    The calibration loop pools them with its own production runs
+    (:func:`demcal.campaign.loop.production_noise`), leaving out a point it has run
+    itself (some of the incline's stored points are the verification runs of earlier
+    paper-profile calibrations, and would otherwise count twice). Two studies that share
+    production points (``quick`` and ``medium`` against ``paper``) count each point once."""
+    seen: dict[str, tuple[dict, int, float]] = {}
     for b in _load():
         if (b.test, b.response, b.production) != (test, response, profile):
             continue
         for pt in b.points:
             n, sd = int(pt.get("production_n") or 0), pt.get("production_sd")
-            key = json.dumps(pt.get("settings", {}), sort_keys=True)
-            if n > 1 and sd is not None and n > seen.get(key, (0, 0.0))[0]:
-                seen[key] = (n, float(sd))
-    df = sum(n - 1 for n, _ in seen.values())
-    ss = sum((n - 1) * sd * sd for n, sd in seen.values())
-    return (math.sqrt(ss / df) if df else float("nan")), df, sum(n for n, _ in seen.values())
+            settings = dict(pt.get("settings", {}))
+            key = json.dumps(settings, sort_keys=True)
+            if n > 1 and sd is not None and n > seen.get(key, ({}, 0, 0.0))[1]:
+                seen[key] = (settings, n, float(sd))
+    return list(seen.values())
+
+
+def stored_noise(test: str, response: str, profile: str) -> tuple[float, int, int]:
+    """``(sd, df, runs)``: the seed-to-seed sd of ``profile``'s ``response`` pooled over
+    :func:`noise_points` (the paper-profile incline: 0.74 deg over eleven points of three
+    seeds, 22 df), its degrees of freedom and the runs behind it; ``(nan, 0, 0)`` where no
+    study replicated that profile."""
+    points = noise_points(test, response, profile)
+    df = sum(n - 1 for _, n, _ in points)
+    ss = sum((n - 1) * sd * sd for _, n, sd in points)
+    return (math.sqrt(ss / df) if df else float("nan")), df, sum(n for _, n, _ in points)
 
 
 def applies(fixed: Mapping[str, object]) -> list[str]:

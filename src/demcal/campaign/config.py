@@ -23,7 +23,8 @@ example)::
                     [conditions.settings] KEY = VALUE, [conditions.reference] PARAMETER = VALUE
     [verification]  replicates, seed
     [calibration]   production, replicates, min_replicates, max_replicates, iterations,
-                    box_moves, box_replicates, path_points, path_replicates, verify_on_path (the closed loop of :mod:`demcal.campaign.loop`)
+                    box_moves, box_replicates, path_points, path_replicates, verify_on_path,
+                    stored_noise (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
@@ -86,7 +87,7 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
     "calibration": ("production", "replicates", "min_replicates", "max_replicates", "iterations", "box_moves",
-                    "box_replicates", "path_points", "path_replicates", "verify_on_path"),
+                    "box_replicates", "path_points", "path_replicates", "verify_on_path", "stored_noise"),
     "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
     "report": ("title", "reference_table", "captions"),
@@ -208,8 +209,12 @@ class CalibrationConfig:
     path_points: int = 3  #: runs along the steepest path beyond the box, per move
     path_replicates: int = 1  #: seeds per path point
     #: verify first at the point where the path crosses the target (between two of its
-    #: points), and lay the moved box's design only if that point misses
+    #: points), or at its step nearest the target when that reads inside the lab window
+    #: without crossing, and lay the moved box's design only if that point misses
     verify_on_path: bool = True
+    #: pool the stored profile studies' replicated production runs into the production
+    #: noise from the start (:func:`demcal.campaign.loop.stored_noise`)
+    stored_noise: bool = True
     budget_runs: int | None = None  #: most runs the calibration uses (its design included)
     budget_cpu_hours: float | None = None  #: most run hours (sum of the runs' wall times)
 
@@ -988,6 +993,7 @@ class _Loader:
             path_points=self.integer(data, "path_points", where, 3, 1),
             path_replicates=self.integer(data, "path_replicates", where, 1, 1),
             verify_on_path=self.boolean(data, "verify_on_path", where, True),
+            stored_noise=self.boolean(data, "stored_noise", where, True),
             budget_runs=runs, budget_cpu_hours=hours)
         first = config.replicates or self.integer(verification, "replicates", ("verification",), 3, 0)
         if first > config.max_replicates:

@@ -719,7 +719,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
         for t in condition.targets:
             values = np.array([r.responses[t.response] for r in ok])
             mean = float(values.mean())
-            sd, df = noise.get(t.response, (float("nan"), 0))
+            sd, df, own = noise.get(t.response, (float("nan"), 0, 0))
             from scipy import stats
 
             half = float(stats.t.ppf(0.975, df) * sd / math.sqrt(len(values))) if df > 0 else float("inf")
@@ -736,9 +736,9 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             history.append(Step(iteration, box.index, "production", new,
                                 f"{production} x{len(values)}{where}: {mean:.2f} ± {half:.2f} (95 %; "
                                 + (f"seed sd {sd:.2f} pooled over the production points"
-                                   + (" and the stored study's" if t.response in noise_prior else "")
-                                   + f", df {df}" if df > 0
-                                   else "seed sd not known yet: no production point has two runs")
+                                   + (" and the stored study's" if own < df else "")
+                                   + f", df {df}" + (f" ({own} the campaign's own)" if 0 < own < df else "")
+                                   if df > 0 else "seed sd not known yet: no production point has two runs")
                                 + f") against {t.mean:g} ± {t.sd if t.sd is not None else float('nan'):g}",
                                 predicted=predicted[t.response], simulated=mean, half_width=half,
                                 discrepancy=disc[t.response].describe(), point=dict(chosen)))
@@ -762,7 +762,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             need = replicates + 1
             for t, mean, half, inside, narrow, sd in verdict:
                 if not narrow and t.sd:
-                    df = noise.get(t.response, (float("nan"), 0))[1]
+                    df = noise.get(t.response, (float("nan"), 0, 0))[1]
                     if df < 1 or not np.isfinite(sd):  # a probe inside the band: what replicates asks for
                         need = max(need, first_replicates)
                     else:
@@ -791,7 +791,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             for name in ("on_path", "best", "optimization"):
                 state.pop(name, None)
             state.update(prod=[], specs=[])
-            if (back := _turned_back(pending, boxes, box, t, condition, missed=True)) is not None:
+            if (back := _turned_back(pending, boxes, box, t, condition, missed=not pending.nearest)) is not None:
                 notes.append(back)
                 turned = ("a path turned back", back)
                 pending = None
@@ -824,7 +824,7 @@ def replicates_needed(sd: float, df: int, n: int, lab_sd: float, cap: int) -> in
     return cap
 
 
-def first_batch(noise: dict[str, tuple[float, int]], targets, first: int, least: int) -> int:
+def first_batch(noise: dict[str, tuple], targets, first: int, least: int) -> int:
     """Replicates of the first batch at a new production point.
 
     ``first`` (``[calibration] replicates``) while the production noise is unknown: no
@@ -841,7 +841,7 @@ def first_batch(noise: dict[str, tuple[float, int]], targets, first: int, least:
     for t in targets:
         if t.sd is None:
             continue
-        sd, df = noise.get(t.response, (float("nan"), 0))
+        sd, df = noise.get(t.response, (float("nan"), 0))[:2]
         if df < 1 or not np.isfinite(sd):
             return first
         # the half-width only shrinks as m grows, so the fewest m >= 1, raised to least
@@ -876,50 +876,67 @@ def _missing(specs, records) -> int:
 
 
 def production_noise(campaign: Campaign, records: Sequence[RunRecord], production: str,
-                     responses, prior: dict[str, tuple[float, int]] | None = None) -> dict[str, tuple[float, int]]:
+                     responses, prior: dict[str, list] | None = None) -> dict[str, tuple[float, int, int]]:
     """Per response: the seed-to-seed sd of the production runs the loop has seen,
-    pooled over their points, and its df; with ``prior`` (response -> ``(sd, df)``, the
-    stored studies' scatter of the production profile: :func:`stored_noise`) pooled in
-    as further points.
+    pooled over their points, its df, and how many of those df are the campaign's own;
+    with ``prior`` (response -> the stored studies' ``(settings, n, sd)`` points of the
+    production profile: :func:`stored_noise`) pooled in as further points, each point
+    the campaign has run itself left out (its own runs there count instead: a stored
+    point may be the very runs of an earlier calibration at the same settings and seeds).
 
     Every condition's points count, not only this condition's: the noise is the
     production bench's scatter at nearby material values, which a condition's fixed
     settings (another condition's calibrated values, ``from_campaign``) change no more
     than its own factors do; the discrepancy is shared between conditions the same way.
-    A point is its whole settings (factors and fixed settings)."""
+    A point is its whole settings (factors and fixed settings). Pooling assumes the
+    scatter is alike at every point; the paper-profile incline's stored points range
+    from 0.1 to 1.5 deg with three seeds each, the larger at high film friction, which a
+    test of equal variances with 2 df a point does not tell apart from chance."""
     groups: dict[tuple, list[RunRecord]] = {}
     for r in records:
         if r.status == "done" and r.kind == "verification" and r.test == campaign.test and r.profile == production:
             groups.setdefault(json.dumps(r.settings, sort_keys=True), []).append(r)
+    own_settings = [rows[0].settings for rows in groups.values()]
     out = {}
     for name in responses:
         sd, df = pooled_sd([r.responses[name] for r in rows if name in r.responses] for rows in groups.values())
-        p_sd, p_df = (prior or {}).get(name, (float("nan"), 0))
-        if p_df > 0:
-            ss = (sd * sd * df if df else 0.0) + p_sd * p_sd * p_df
-            sd, df = math.sqrt(ss / (df + p_df)), df + p_df
-        out[name] = (sd, df)
+        own = df
+        ss = sd * sd * df if df else 0.0
+        for settings, n, p_sd in (prior or {}).get(name, []):
+            if not any(_same_point(settings, mine) for mine in own_settings):
+                ss, df = ss + (n - 1) * p_sd * p_sd, df + n - 1
+        out[name] = ((math.sqrt(ss / df) if df else float("nan")), df, own)
     return out
 
 
-def stored_noise(campaign: Campaign, production: str, responses) -> dict[str, tuple[float, int]]:
-    """Response -> ``(sd, df)`` of the production profile's seed-to-seed scatter as the
-    stored profile studies measured it (:func:`demcal.bench.profiles.stored_noise`),
-    where one applies to the campaign's fixed settings (the same rule as a stored bias:
-    material values only). With it the first production point is sized by a noise
-    already measured on the same bench instead of the ``[calibration] replicates`` asked
-    for at an unknown noise, and its 95 % interval uses those degrees of freedom too: on
-    the paper-profile incline (0.74 deg, 22 df, against lab sds of 2.6-3.2 deg) one run
-    decides a point. The campaign's own production runs join the pool as they come."""
+def _same_point(stored: dict, settings: dict) -> bool:
+    """Whether a run's ``settings`` are the stored point's (which names the material
+    values it varied; the rest were the profile's defaults)."""
+    try:
+        return all(abs(float(settings[k]) - float(v)) < 1e-9 for k, v in stored.items())
+    except (KeyError, TypeError, ValueError):
+        return False
+
+
+def stored_noise(campaign: Campaign, production: str, responses) -> dict[str, list]:
+    """Response -> the stored profile studies' replicated points of the production
+    profile, ``(settings, n, sd)`` each (:func:`demcal.bench.profiles.noise_points`),
+    where they apply to the campaign's fixed settings (the same rule as a stored bias:
+    material values only) and ``[calibration] stored_noise`` is on. With them the first
+    production point is sized by a noise already measured on the same bench instead of
+    the ``[calibration] replicates`` asked for at an unknown noise, and its 95 % interval
+    uses those degrees of freedom too: on the paper-profile incline (0.74 deg over
+    22 df, against lab sds of 2.6-3.2 deg) one run decides a point. The campaign's own
+    production runs join the pool as they come (:func:`production_noise`)."""
     from demcal.bench import profiles
 
-    if profiles.applies(campaign.settings):
+    if not campaign.calibration.stored_noise or profiles.applies(campaign.settings):
         return {}
     out = {}
     for name in responses:
-        sd, df, _ = profiles.stored_noise(campaign.test, name, production)
-        if df > 0:
-            out[name] = (sd, df)
+        points = profiles.noise_points(campaign.test, name, production)
+        if points:
+            out[name] = points
     return out
 
 
@@ -1014,6 +1031,8 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     last = points[-1]
     at_limit = not np.any((np.abs(grad) > 1e-12) & ~(((last >= coded_hi - 1e-9) & (grad > 0))
                                                       | ((last <= coded_lo + 1e-9) & (grad < 0))))
+    nearest = None  # the step to verify when the path crosses nothing (_nearest_in_window)
+    crossed = crossing is not None
     if crossing is None:
         if at_limit or len(points) < cfg.path_points + 1:
             best = np.nanmax(ys) if sign > 0 else np.nanmin(ys)
@@ -1038,10 +1057,12 @@ def _move(campaign, condition, box, model, target, lo, hi, limits, run, records,
     centre = np.clip(centre, limits[:, 0] + half, limits[:, 1] - half)
     moved = Box(box.index + 1, tuple(_clean(centre - half, limits)), tuple(_clean(centre + half, limits)),
                 reason=(f"move {moves + 1}: {response} target {target:g} outside box {box.index} "
-                        f"({lo:.2f} to {hi:.2f}); the steepest path crossed it near "
+                        f"({lo:.2f} to {hi:.2f}); the steepest path "
+                        + ("crossed it near " if crossed else "ran its length toward it without crossing it, "
+                           "ending near ")
                         + _show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})))
     if point is None:
-        if crossing is not None and nearest is not None:
+        if nearest is not None:
             return PathEnd(moved, response, sign, _parameters(campaign, box, points[nearest], limits),
                            float(measured[nearest - 1]), (ks[nearest], ks[nearest]), reading=float(ys[nearest]),
                            nearest=True)
