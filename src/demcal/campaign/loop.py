@@ -772,25 +772,24 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
             continue
         t, mean, *_ = next(v for v in verdict if not v[3])
         missed = (point_key, t, mean)
-        if pending is not None and pending.limit is not None:
-            # the path's best point at the limits, measured and missed
-            reason = f"{pending.limit}; its production runs there gave {mean:.2f}, outside {t.mean:g} ± {t.sd:g}"
-            if not all(in_window(*m) for m in misses):
-                return stop(OUT_OF_REACH, reason, **state)
-            # the box still reaches into the window: solved at its edge after all
-            for name in ("on_path", "best", "optimization"):
-                state.pop(name, None)
-            state.update(prod=[], specs=[])
-            turned = ("the parameters' limits stop the path from it", reason)
-            pending = None
-            continue
         if pending is not None:
-            # the point on the path missed: lay the new box's design around the crossing
-            # after all (the classic method), with what the point taught in the discrepancy;
-            # the result no longer names that point (nor an older solve's)
+            if pending.limit is not None:  # the path's best point at the limits, measured and missed
+                reason = (f"{pending.limit}; its production runs there gave {mean:.2f}, outside {t.mean:g} ± "
+                          f"{t.sd:g}")
+                if not all(in_window(*m) for m in misses):
+                    return stop(OUT_OF_REACH, reason, **state)
+            # the point on the path missed: the result no longer names that point (nor an
+            # older solve's)
             for name in ("on_path", "best", "optimization"):
                 state.pop(name, None)
             state.update(prod=[], specs=[])
+            if pending.limit is not None:
+                # the box still reaches into the window: solved at its edge after all
+                turned = ("the parameters' limits stop the path from it", reason)
+                pending = None
+                continue
+            # lay the new box's design around the crossing after all (the classic method),
+            # with what the point taught in the discrepancy
             if (back := _turned_back(pending, boxes, box, t, condition, missed=not pending.nearest)) is not None:
                 notes.append(back)
                 turned = ("a path turned back", back)
