@@ -162,6 +162,12 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                      "paper-profile incline's 0.74° over 22 df, so one paper run can "
                                      "decide a point; a point the campaign runs itself counts once). "
                                      "false: the campaign's own runs only, as before 27 Nov 2026.",
+    ("calibration", "replicate_batch"): "production replicates are asked for in batches of a multiple "
+                                        "of this many new runs (default 1: as many as the noise asks "
+                                        "for). Set it to the number of workers: three runs on two "
+                                        "workers take as long as four, and the fourth may spare a later "
+                                        "round of one. A campaign setting, not the worker count itself, "
+                                        "so a calibration replays the same whatever `--workers` is.",
     ("budget", "runs"): "most runs the calibration uses, its design included (default: no limit).",
     ("budget", "cpu_hours"): "most run hours, the sum of the runs' wall times (default: no limit).",
     ("executor", "kind"): "`local` (default: a pool of worker processes) or `dask`.",

@@ -179,6 +179,25 @@ def test_a_moved_box_takes_box_replicates_seeds_a_point(tmp_path):
         parse_campaign(path.read_text(), path)
 
 
+def test_production_replicates_come_in_batches_of_replicate_batch(tmp_path):
+    """[calibration] replicate_batch = 2 ([verification] replicates = 2, a probe of one
+    first): every production step runs an even number of new seeds, and the loop still
+    verifies; a bad value is one sentence."""
+    campaign, cal = calibrated(tmp_path, calibration="replicate_batch = 2\n")
+    assert campaign.calibration.replicate_batch == 2
+    steps = [s for c in cal.conditions for s in c.loop.history if s.stage == "production"]
+    assert steps and all(s.runs % 2 == 0 for s in steps), [s.runs for s in steps]
+    assert [c.loop.status for c in cal.conditions] == ["verified", "verified"]
+    with Store(campaign.store_path, readonly=True) as store:
+        production = [r for r in store.records() if r.kind == "verification"]
+    assert len(production) == sum(s.runs for s in steps)
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    path = write(bad, calibration="replicate_batch = 0\n")
+    with pytest.raises(ConfigError, match=r"'replicate_batch' must be at least 1, got 0\.$"):
+        parse_campaign(path.read_text(), path)
+
+
 def test_replay_runs_nothing_and_finds_the_same(looped, tmp_path, monkeypatch):
     campaign, cal = looped
     markers = tmp_path / "markers"

@@ -75,6 +75,24 @@ def test_a_new_point_adds_one_degree_of_freedom_less_than_its_runs():
     assert replicates_needed(sd=1.0, df=2, n=1, lab_sd=2.5, cap=10) == 2
 
 
+def test_batches_are_rounded_up_to_the_replicate_batch():
+    """[calibration] replicate_batch: the new runs of a batch come in multiples of it
+    (two workers: three runs take as long as four), never beyond max_replicates; 1 keeps
+    what the noise asks for."""
+    from demcal.campaign.loop import batched
+
+    assert batched(3, 0, 2, 16) == 4  # a first batch of three on two workers
+    assert batched(1, 0, 2, 16) == 2  # a probe
+    assert batched(11, 10, 2, 16) == 12  # one more at a point of ten: two
+    assert batched(14, 10, 2, 16) == 14  # four more: already a multiple
+    assert batched(15, 10, 3, 16) == 16  # six more would pass the cap
+    assert batched(16, 16, 2, 16) == 16
+    assert [batched(n, 4, 1, 10) for n in (5, 7, 12)] == [5, 7, 10]  # 1: as asked, capped
+    # the rounding never asks for fewer than the noise did
+    assert all(batched(n, d, k, 40) >= n and (batched(n, d, k, 40) - d) % k == 0
+               for n in range(1, 30) for d in range(n) for k in (1, 2, 3, 4))
+
+
 def test_the_first_batch_at_a_new_point_follows_the_pooled_noise():
     from demcal.campaign.config import Target
     from demcal.campaign.loop import first_batch

@@ -24,7 +24,7 @@ example)::
     [verification]  replicates, seed
     [calibration]   production, replicates, min_replicates, max_replicates, iterations,
                     box_moves, box_replicates, path_points, path_replicates, verify_on_path,
-                    stored_noise (the closed loop of :mod:`demcal.campaign.loop`)
+                    stored_noise, replicate_batch (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
     [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
@@ -87,7 +87,8 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
     "conditions[].targets.*": ("mean", "sd"),
     "verification": ("replicates", "seed"),
     "calibration": ("production", "replicates", "min_replicates", "max_replicates", "iterations", "box_moves",
-                    "box_replicates", "path_points", "path_replicates", "verify_on_path", "stored_noise"),
+                    "box_replicates", "path_points", "path_replicates", "verify_on_path", "stored_noise",
+                    "replicate_batch"),
     "budget": ("runs", "cpu_hours"),
     "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
     "report": ("title", "reference_table", "captions"),
@@ -200,6 +201,9 @@ class CalibrationConfig:
     #: than ``replicates`` give a 95 % interval narrower than the lab sd
     min_replicates: int = 1
     max_replicates: int = 10  #: most production replicates at one point
+    #: production replicates are asked for in multiples of this many runs (set it to the
+    #: number of workers: a batch that leaves a worker idle takes as long as a full one)
+    replicate_batch: int = 1
     iterations: int = 4  #: re-solves on the corrected surface per condition
     box_moves: int = 3  #: most box moves per condition
     #: seeds per design point of a moved box (None: ``[runs] replicates``). A box is moved
@@ -986,6 +990,7 @@ class _Loader:
             production=production, replicates=replicates,
             min_replicates=self.integer(data, "min_replicates", where, 1, 1),
             max_replicates=self.integer(data, "max_replicates", where, 10, 2),
+            replicate_batch=self.integer(data, "replicate_batch", where, 1, 1),
             iterations=self.integer(data, "iterations", where, 4, 1),
             box_moves=self.integer(data, "box_moves", where, 3, 0),
             box_replicates=(self.integer(data, "box_replicates", where, 1, 1) if "box_replicates" in data

@@ -678,6 +678,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 replicates = first_batch(noise, condition.targets, first_replicates, cfg.min_replicates)
                 if production != cheap and not any(residuals.values()) and replicates > 1:
                     replicates = 1  # a probe: nothing is known of production - cheap yet
+                replicates = batched(replicates, 0, cfg.replicate_batch, cfg.max_replicates)
         hold = None
         if replicates == 0:
             return stop(NOT_VERIFIED, "no production replicates are asked for ([verification] replicates = 0)",
@@ -767,7 +768,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                         need = max(need, first_replicates)
                     else:
                         need = max(need, replicates_needed(sd, df, replicates, t.sd, cfg.max_replicates))
-            replicates = min(cfg.max_replicates, need)
+            replicates = batched(need, replicates, cfg.replicate_batch, cfg.max_replicates)
             hold = True
             continue
         t, mean, *_ = next(v for v in verdict if not v[3])
@@ -821,6 +822,15 @@ def replicates_needed(sd: float, df: int, n: int, lab_sd: float, cap: int) -> in
         if stats.t.ppf(0.975, df + m - max(n, 1)) * sd / math.sqrt(m) < lab_sd:
             return m
     return cap
+
+
+def batched(need: int, done: int, step: int, cap: int) -> int:
+    """``need`` replicates at a point that has ``done``, the new runs rounded up to a
+    multiple of ``step`` (``[calibration] replicate_batch``), at most ``cap``. With
+    ``step`` the number of workers, a batch never leaves a worker idle: three runs on two
+    workers take as long as four, and the fourth may save a later round of one run."""
+    new = max(need - done, 0)
+    return min(cap, done + -(-new // step) * step) if step > 1 else min(cap, need)
 
 
 def first_batch(noise: dict[str, tuple], targets, first: int, least: int) -> int:
