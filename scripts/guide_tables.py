@@ -166,8 +166,11 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                         "of this many new runs (default 1: as many as the noise asks "
                                         "for). Set it to the number of workers: three runs on two "
                                         "workers take as long as four, and the fourth may spare a later "
-                                        "round of one. A campaign setting, not the worker count itself, "
-                                        "so a calibration replays the same whatever `--workers` is.",
+                                        "round of one. A probe stays one run, and a batch whose extra "
+                                        "seeds would pass `[budget] runs` runs what the noise asks for. A "
+                                        "campaign setting, not the worker count itself, so a calibration "
+                                        "replays the same whatever `--workers` is (at most "
+                                        "`max_replicates`).",
     ("budget", "runs"): "most runs the calibration uses, its design included (default: no limit).",
     ("budget", "cpu_hours"): "most run hours, the sum of the runs' wall times (default: no limit).",
     ("executor", "kind"): "`local` (default: a pool of worker processes) or `dask`.",

@@ -180,21 +180,50 @@ def test_a_moved_box_takes_box_replicates_seeds_a_point(tmp_path):
 
 
 def test_production_replicates_come_in_batches_of_replicate_batch(tmp_path):
-    """[calibration] replicate_batch = 2 ([verification] replicates = 2, a probe of one
-    first): every production step runs an even number of new seeds, and the loop still
-    verifies; a bad value is one sentence."""
-    campaign, cal = calibrated(tmp_path, calibration="replicate_batch = 2\n")
+    """[calibration] replicate_batch = 2: the probe stays one run; every later production
+    batch runs an even number of new seeds, the first at a point and the follow-up ones
+    alike (a lab sd of 0.5 against a seed noise of 0.3 asks for more than the first
+    batch), and the loop still verifies. A budget that the rounded batch would pass runs
+    what the noise asks for; a bad value is one sentence."""
+    text = write(tmp_path, calibration="replicate_batch = 2\nmax_replicates = 12\n").read_text()
+    text = text.replace("mean = 33.0, sd = 1.5", "mean = 33.0, sd = 0.5")
+    path = tmp_path / "loop.toml"
+    path.write_text(text)
+    campaign = parse_campaign(text, path)
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
     assert campaign.calibration.replicate_batch == 2
+    assert [c.loop.status for c in cal.conditions] == ["verified", "verified"], [c.loop.reason for c in cal.conditions]
     steps = [s for c in cal.conditions for s in c.loop.history if s.stage == "production"]
-    assert steps and all(s.runs % 2 == 0 for s in steps), [s.runs for s in steps]
-    assert [c.loop.status for c in cal.conditions] == ["verified", "verified"]
+    assert steps[0].runs == 1  # the probe
+    assert all(s.runs % 2 == 0 for s in steps[1:]), [s.runs for s in steps]
+    # a follow-up batch at a point that already had runs (its text counts all of them)
+    counts = [int(re.search(r" x(\d+)", s.text)[1]) for s in steps]
+    assert any(n > s.runs for n, s in zip(counts, steps) if s.runs), [(n, s.runs) for n, s in zip(counts, steps)]
     with Store(campaign.store_path, readonly=True) as store:
-        production = [r for r in store.records() if r.kind == "verification"]
-    assert len(production) == sum(s.runs for s in steps)
+        records = store.records()
+    assert len([r for r in records if r.kind == "verification"]) == sum(s.runs for s in steps)
+    # the last batch (the second condition's one point, one run asked for, two run) with a
+    # budget one run short of what the calibration used: it runs the one run and verifies
+    assert steps[-1].runs == 2 and steps[-1].text.startswith("quick x2")
+    tight = tmp_path / "tight"
+    tight.mkdir()
+    limited = text.replace("[executor]\n", f"[budget]\nruns = {len(records) - 1}\n\n[executor]\n")
+    campaign = parse_campaign(limited, tight / "loop.toml")
+    run_campaign(campaign, workers=1, progress=False)
+    cal = calibrate(campaign, workers=1, progress=False)
+    assert [c.loop.status for c in cal.conditions] == ["verified", "verified"], [c.loop.reason for c in cal.conditions]
+    last = [s for s in cal.conditions[1].loop.history if s.stage == "production"][-1]
+    assert last.runs == 1 and last.text.startswith("quick x1")
+    with Store(campaign.store_path, readonly=True) as store:
+        assert len(store.records()) == len(records) - 1
     bad = tmp_path / "bad"
     bad.mkdir()
     path = write(bad, calibration="replicate_batch = 0\n")
     with pytest.raises(ConfigError, match=r"'replicate_batch' must be at least 1, got 0\.$"):
+        parse_campaign(path.read_text(), path)
+    path = write(bad, calibration="replicate_batch = 12\n")
+    with pytest.raises(ConfigError, match=r"'replicate_batch' \(12\) is above 'max_replicates' \(10\)"):
         parse_campaign(path.read_text(), path)
 
 

@@ -85,7 +85,8 @@ def test_batches_are_rounded_up_to_the_replicate_batch():
     assert batched(1, 0, 2, 16) == 2  # a probe
     assert batched(11, 10, 2, 16) == 12  # one more at a point of ten: two
     assert batched(14, 10, 2, 16) == 14  # four more: already a multiple
-    assert batched(15, 10, 3, 16) == 16  # six more would pass the cap
+    assert batched(15, 11, 3, 16) == 16  # six more would pass the cap
+    assert batched(16, 13, 2, 16) == 16  # four more would pass it
     assert batched(16, 16, 2, 16) == 16
     assert [batched(n, 4, 1, 10) for n in (5, 7, 12)] == [5, 7, 10]  # 1: as asked, capped
     # the rounding never asks for fewer than the noise did

@@ -1005,6 +1005,11 @@ class _Loader:
             raise self.error(where + ("max_replicates",),
                              f"'max_replicates' ({config.max_replicates}) is below the first production "
                              f"replicates ({first}); raise it")
+        if config.replicate_batch > config.max_replicates:
+            raise self.error(where + ("replicate_batch",),
+                             f"'replicate_batch' ({config.replicate_batch}) is above 'max_replicates' "
+                             f"({config.max_replicates}); set it to your number of workers, at most "
+                             f"max_replicates")
         if first and config.min_replicates > first:
             raise self.error(where + ("min_replicates",),
                              f"'min_replicates' ({config.min_replicates}) is above the first production "

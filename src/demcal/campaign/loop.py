@@ -544,7 +544,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
     history: list[Step] = []
     notes: list[str] = []
     moves = 0
-    replicates = first_replicates
+    replicates = asked = first_replicates  # asked: before the rounding to replicate_batch
     box0 = box
     on_box = {r: prior_on_box(b, campaign, condition, box0, cheap) for r, b in priors.items()}
     #: response -> [(box-0 coded point, production - cheap model)], shared by the conditions
@@ -675,15 +675,22 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                 state.update(prod=[], specs=[])
                 noise = production_noise(campaign, records(), production, responses, noise_prior)
                 point_key = key
-                replicates = first_batch(noise, condition.targets, first_replicates, cfg.min_replicates)
-                if production != cheap and not any(residuals.values()) and replicates > 1:
-                    replicates = 1  # a probe: nothing is known of production - cheap yet
-                replicates = batched(replicates, 0, cfg.replicate_batch, cfg.max_replicates)
+                asked = first_batch(noise, condition.targets, first_replicates, cfg.min_replicates)
+                if production != cheap and not any(residuals.values()):
+                    # a probe: nothing is known of production - cheap yet (one run, never rounded up)
+                    replicates = asked = min(asked, 1)
+                else:
+                    replicates = batched(asked, 0, cfg.replicate_batch, cfg.max_replicates)
         hold = None
         if replicates == 0:
             return stop(NOT_VERIFIED, "no production replicates are asked for ([verification] replicates = 0)",
                         **state)
         specs = _production_specs(campaign, condition, ci, chosen, production, replicates)
+        if replicates > asked and budget.exceeded(records(), _missing(specs, records())):
+            # the seeds the rounding to replicate_batch adds do not fit the budget: what the
+            # noise asks for may
+            replicates = asked
+            specs = _production_specs(campaign, condition, ci, chosen, production, replicates)
         state["specs"] = specs
         for r in responses:  # a stored bias used beyond the points it was measured at
             d = disc[r]
@@ -768,6 +775,7 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                         need = max(need, first_replicates)
                     else:
                         need = max(need, replicates_needed(sd, df, replicates, t.sd, cfg.max_replicates))
+            asked = min(cfg.max_replicates, need)
             replicates = batched(need, replicates, cfg.replicate_batch, cfg.max_replicates)
             hold = True
             continue
@@ -828,7 +836,9 @@ def batched(need: int, done: int, step: int, cap: int) -> int:
     """``need`` replicates at a point that has ``done``, the new runs rounded up to a
     multiple of ``step`` (``[calibration] replicate_batch``), at most ``cap``. With
     ``step`` the number of workers, a batch never leaves a worker idle: three runs on two
-    workers take as long as four, and the fourth may save a later round of one run."""
+    workers take as long as four, and the fourth may save a later round of one run. The
+    loop does not round a probe (one run where nothing is known of production - cheap),
+    nor a batch whose extra seeds would pass the ``[budget] runs``."""
     new = max(need - done, 0)
     return min(cap, done + -(-new // step) * step) if step > 1 else min(cap, need)
 
