@@ -839,8 +839,7 @@ def batched(need: int, done: int, step: int, cap: int) -> int:
     workers take as long as four, and the fourth may save a later round of one run. The
     loop does not round a probe (one run where nothing is known of production - cheap),
     nor a batch whose extra seeds would pass the ``[budget] runs``."""
-    new = max(need - done, 0)
-    return min(cap, done + -(-new // step) * step) if step > 1 else min(cap, need)
+    return min(cap, done + -(-max(need - done, 0) // step) * step)
 
 
 def first_batch(noise: dict[str, tuple], targets, first: int, least: int) -> int:
