@@ -84,6 +84,8 @@ def test_json_output(capsys):
     (["bench", "impact", "--profile", "huge"], "unknown profile 'huge'"),
     (["bench", "repose-funnel", "--set", "particles.count=500000"], "too small for 500000 particles"),
     (["bench", "impact", "--vtk"], "--vtk needs --out"),
+    (["bench", "incline", "--profile", "tiny", "--set", "incline.container=free"],
+     "needs incline.container_mass above 0"),
 ])
 def test_bad_input_is_one_sentence_and_exit_2(capsys, argv, words):
     assert main(argv) == 2

@@ -61,3 +61,45 @@ def test_rigid_container_holds_within_its_rim_friction_and_yields_beyond():
     massless = RigidContainer(0.0, 0.0, 0.2, w)
     assert massless.velocity(0.5, th) == pytest.approx(0.01)  # any push moves it
     assert massless.velocity(1e6, th) == 0.5  # capped
+
+
+def test_the_load_a_rough_wall_carries_adds_to_the_rim_friction():
+    import math
+
+    from demcal.bench.incline import RigidContainer
+
+    w = 10.0
+    th = math.radians(25.0)
+    massless = RigidContainer(weight_c=0.0, mu=0.5, v_ref=0.2, weight=w)
+    # the wall carries 3 N of the material's weight onto the rim: 1.5 N of rim friction
+    assert massless.velocity(1.5 - 1e-6, th, load=3.0) == 0.0
+    assert massless.velocity(2.5, th, load=3.0) == pytest.approx(0.2 * 1.0 / w)
+    # a wall that pulls the container up unloads its rim, never below zero
+    heavy = RigidContainer(weight_c=2.0, mu=0.5, v_ref=0.2, weight=w)
+    own = 2.0 * math.sin(th)
+    assert heavy.velocity(1.0, th, load=-5.0) == pytest.approx(0.2 * (1.0 + own) / w)
+    hold = 0.5 * (2.0 * math.cos(th) + 1.0)
+    assert heavy.velocity(hold - own - 1e-6, th, load=1.0) == 0.0
+
+
+def test_a_free_container_sticks_then_accelerates_then_sticks_again():
+    import math
+
+    from demcal.bench.incline import FreeContainer
+    from demcal.errors import ConfigError
+
+    g = 9.81
+    box = FreeContainer(weight_c=2.0 * g, mu=0.5)  # a 2 kg ring
+    th = math.radians(20.0)
+    hold = 0.5 * (2.0 * g * math.cos(th) + 4.0)  # rim friction with 4 N carried by the wall
+    own = 2.0 * g * math.sin(th)
+    assert box.velocity(hold - own - 1e-6, th, load=4.0, dt=1e-3) == 0.0  # held
+    # pushed 2 N past its rim friction: a = 2 N / 2 kg for 1 ms
+    v1 = box.velocity(hold - own + 2.0, th, load=4.0, dt=1e-3)
+    assert v1 == pytest.approx(1e-3)
+    # moving, kinetic friction acts against the velocity: net 2 N again, it keeps accelerating
+    assert box.velocity(hold - own + 2.0, th, load=4.0, dt=1e-3) == pytest.approx(2e-3)
+    # pushed back uphill hard enough to reverse: it stops instead of swinging back
+    assert box.velocity(-100.0, th, load=4.0, dt=1e-3) == 0.0
+    with pytest.raises(ConfigError, match="container_mass above 0"):
+        FreeContainer(0.0, 0.5)

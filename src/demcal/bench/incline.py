@@ -38,7 +38,17 @@ The simulation
   ``"remove"`` the container is taken away once the bed has settled. With ``"rigid"``
   it moves only when pushed (:class:`RigidContainer`, updated every 0.5 ms): a container
   of ``incline.container_mass`` times the material's mass with rim friction
-  ``incline.container_friction`` on the film, massless and frictionless by default.
+  ``incline.container_friction`` on the film, massless and frictionless by default, that
+  gives way in proportion to the push beyond its rim's friction (overdamped). With
+  ``"free"`` the container is a free body of that mass (:class:`FreeContainer`): it
+  sticks while the rim's static friction holds and otherwise accelerates under the
+  forces on it, as the lab's container, which slides with the material (paper §3.1).
+  ``incline.container_wall_friction`` gives the container's wall friction against the
+  particles (0 by default), through which it carries part of the material's weight onto
+  its rim. Measured at the medium profile (docs/validation.md, "A container that slides
+  with the material"): a free container whose rim has the material's own friction
+  raises the onset by 0.5-1.3 deg; a heavy one gripping the film harder than the material
+  makes the response its own (about 24 deg whatever mu').
 * **Onset of sliding.** Every 5 ms the mass-weighted mean velocity of the material along
   the slope ``v`` is recorded. Sliding is detected when ``v`` exceeds
   ``incline.slide_speed`` (default 0.02 m/s). A block starting to slide on a plane tilted
@@ -119,8 +129,8 @@ class Incline(BenchExperiment):
                     choices=("particles", "block")),
             Setting("incline.container", "follow", "-",
                     "container during the tilt: follows the material's mean velocity, moves only "
-                    "when pushed (rigid), or removed",
-                    choices=("follow", "rigid", "remove")),
+                    "when pushed (rigid: overdamped; free: a free body of its own mass), or removed",
+                    choices=("follow", "rigid", "free", "remove")),
             Setting("incline.tilt_rate", C.per_profile(profile, 10.0, 5.0, 1.0), "deg/s",
                     "tilting rate of the plate", 0.01, 90.0),
             Setting("incline.start_angle", 5.0, "deg",
@@ -131,9 +141,12 @@ class Incline(BenchExperiment):
                     "speed at which the following container gives way per unit of the "
                     "along-slope push on it over the material's weight", 0.0, 1.0),
             Setting("incline.container_mass", 0.0, "-",
-                    "rigid container: its own mass over the material's", 0.0, 100.0),
+                    "rigid or free container: its own mass over the material's", 0.0, 100.0),
             Setting("incline.container_friction", 0.0, "-",
-                    "rigid container: static friction of its rim on the film", 0.0, 2.0),
+                    "rigid or free container: static friction of its rim on the film", 0.0, 2.0),
+            Setting("incline.container_wall_friction", 0.0, "-",
+                    "static friction between the particles and the container's wall (0: a "
+                    "frictionless wall)", 0.0, 2.0),
             Setting("incline.slide_speed", 0.02, "m/s",
                     "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
             Setting("incline.visible_mm", 2.0, "mm",
@@ -156,13 +169,18 @@ class Incline(BenchExperiment):
         from demcal.particles.materials import Interaction, steel
 
         block = s["incline.material"] == "block"
+        if not block and s["incline.container"] == "free" and float(s["incline.container_mass"]) <= 0.0:
+            FreeContainer(0.0, 0.0)  # its one sentence, before any particle is made
         film = C.material_of(s, "film")
         mats = [C.material_of(s), film, steel()]
-        slick = Interaction(restitution=s["wall.restitution"], static_friction=0.0, rolling_friction=0.0,
-                            damping_factor=s["wall.damping_factor"],
-                            stiffness_factor=s["particle.stiffness_factor"])
+        def wall_of(mu_wall):
+            return Interaction(restitution=s["wall.restitution"], static_friction=mu_wall, rolling_friction=0.0,
+                               damping_factor=s["wall.damping_factor"],
+                               stiffness_factor=s["particle.stiffness_factor"])
+
+        slick, wall = wall_of(0.0), wall_of(float(s["incline.container_wall_friction"]))
         inter = {(0, 0): C.interaction(s, "particle"), (0, 1): C.interaction(s, "film"),
-                 (0, 2): slick, "default": slick}
+                 (0, 2): wall, "default": slick}
         mu = float(s["film.static_friction"])
         start = min(float(s["incline.start_angle"]), max(0.0, math.degrees(math.atan(mu)) - 5.0))
         max_angle = float(s["incline.max_angle"])
@@ -282,7 +300,7 @@ class _Tilt(Reporter):
         self.start_deg, self.rate = start, rate
         self.weight = float(sim.state.masses.sum()) * C.G
         self.follow = container is not None and s["incline.container"] == "follow"
-        rigid = container is not None and s["incline.container"] == "rigid"
+        kind = s["incline.container"] if container is not None else None
         self.v_ref = float(s["incline.container_yield"])
         self.v_detect = float(s["incline.slide_speed"])
         self.visible = float(s["incline.visible_mm"]) * 1e-3
@@ -292,9 +310,11 @@ class _Tilt(Reporter):
         self.moved_at = None  # tilt [deg] when the material had moved `visible` down the slope
         self._last = 0.0
         self.rim = None
-        if rigid:
-            body = RigidContainer(float(s["incline.container_mass"]) * self.weight,
-                                  float(s["incline.container_friction"]), self.v_ref, self.weight)
+        if kind in ("rigid", "free"):
+            weight_c = float(s["incline.container_mass"]) * self.weight
+            mu_rim = float(s["incline.container_friction"])
+            body = (RigidContainer(weight_c, mu_rim, self.v_ref, self.weight) if kind == "rigid"
+                    else FreeContainer(weight_c, mu_rim))
             self.rim = _Rim(self, body, max(1, int(round(RIGID_CHECK / sim.dt))))
 
     def start(self, sim, total_steps):
@@ -344,8 +364,9 @@ class _Tilt(Reporter):
 
 
 class _Rim:
-    """A rigid container (:class:`RigidContainer`) moved by the forces on it, every
-    ``interval`` steps within each of the tilt's intervals (counted from its start)."""
+    """A rigid or free container (:class:`RigidContainer`, :class:`FreeContainer`) moved by
+    the forces on it, every ``interval`` steps within each of the tilt's intervals (counted
+    from its start)."""
 
     def __init__(self, tilt, body, interval):
         self.tilt, self.body, self.interval = tilt, body, interval
@@ -360,7 +381,8 @@ class _Rim:
         if into == 0:  # the end of a tilt interval: this piece was its last, maybe short
             n_k = self.tilt.interval % self.interval or self.interval
         motion = self.tilt.motion
-        vc = self.body.velocity(float(sim.wall_forces()["container"][0][0]), self.tilt.theta)
+        f = sim.wall_forces()["container"][0]
+        vc = self.body.velocity(float(f[0]), self.tilt.theta, load=-float(f[2]), dt=n_k * sim.dt)
         xc = motion.offset[0] + motion.velocity[0] * n_k * sim.dt
         motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
 
@@ -370,10 +392,13 @@ class RigidContainer:
 
     The container (``incline.container = "rigid"``) is a rigid ring of weight ``weight_c``
     [N] resting on the film with rim friction ``mu``; the particles push it with ``fx``
-    [N] along the slope (their contacts with its frictionless wall). It stays put while
-    the push plus its own weight's slope component is within the rim's static friction
-    ``mu weight_c cos(theta)``, and otherwise gives way at ``v_ref`` times the excess
-    over ``weight`` (the material's weight) [m/s]: the overdamped limit of a free body,
+    [N] along the slope (their contacts with its wall) and, through the wall's friction
+    (``incline.container_wall_friction``), press it onto the film with ``load`` [N] (the
+    part of the material's weight that the wall carries, Janssen's effect; 0 with a
+    frictionless wall). It stays put while the push plus its own weight's slope component
+    is within the rim's static friction ``mu (weight_c cos(theta) + load)``, and otherwise
+    gives way at ``v_ref`` times the excess over ``weight`` (the material's weight) [m/s]:
+    the overdamped limit of a free body,
     which needs no mass of its own (an explicit free body of the container's mass would be
     stable only with a step below ``2 sqrt(m / k_bed)``, far below the update interval).
     With ``weight_c = 0`` it is a massless container that only keeps the material
@@ -384,10 +409,50 @@ class RigidContainer:
     def __init__(self, weight_c: float, mu: float, v_ref: float, weight: float):
         self.weight_c, self.mu, self.v_ref, self.weight = weight_c, mu, v_ref, weight
 
-    def velocity(self, fx: float, theta: float) -> float:
+    def velocity(self, fx: float, theta: float, load: float = 0.0, dt: float = 0.0) -> float:
         drive = fx + self.weight_c * math.sin(theta)
-        excess = max(abs(drive) - self.mu * self.weight_c * math.cos(theta), 0.0)
+        normal = max(self.weight_c * math.cos(theta) + load, 0.0)  # a wall pulled up lifts the rim
+        excess = max(abs(drive) - self.mu * normal, 0.0)
         return float(np.clip(math.copysign(excess, drive) * self.v_ref / self.weight, -0.5, 0.5))
+
+
+class FreeContainer:
+    """The lab's bottomless container as a free body sliding on the film (paper §3.1: the
+    plate is stopped when "the bottomless container and the particulate material began to
+    slide"; ``incline.container = "free"``).
+
+    A rigid ring of weight ``weight_c`` [N] (its mass ``weight_c / g``) on the film, rim
+    friction ``mu``: the rim's normal force is its own weight's normal component plus the
+    ``load`` the particles put on it through the wall's friction (Janssen's effect). At
+    rest it sticks while the along-slope drive (the particles' push ``fx`` plus its own
+    weight's slope component) is within ``mu`` times that normal force; moving, it
+    accelerates under the drive less the rim's friction against its velocity, and sticks
+    again where the velocity would change sign. One explicit step of ``dt`` per call
+    (symplectic Euler, the engine's own scheme): stable while ``dt`` stays below
+    ``2 sqrt(m / k)`` with ``k`` the bed's stiffness against the wall, which
+    ``incline.container_mass`` of a few per cent of the material's already gives at the
+    0.5 ms update (a stiffness of 2e5 N/m against a 1 kg bed: 2 %).
+    """
+
+    def __init__(self, weight_c: float, mu: float):
+        if weight_c <= 0.0:
+            raise ConfigError("incline.container = \"free\" needs incline.container_mass above 0 (a free "
+                              "body has a mass); set it, or use \"rigid\" for a massless container.")
+        self.weight_c, self.mu = weight_c, mu
+        self.mass = weight_c / C.G
+        self.v = 0.0
+
+    def velocity(self, fx: float, theta: float, load: float = 0.0, dt: float = 0.0) -> float:
+        drive = fx + self.weight_c * math.sin(theta)
+        hold = self.mu * max(self.weight_c * math.cos(theta) + load, 0.0)
+        if self.v == 0.0:
+            if abs(drive) <= hold:
+                return 0.0
+            self.v = math.copysign(abs(drive) - hold, drive) * dt / self.mass
+            return self.v
+        v = self.v + (drive - math.copysign(hold, self.v)) * dt / self.mass
+        self.v = 0.0 if v * self.v < 0.0 else v
+        return self.v
 
 
 def base_kinematics(st, touch: float = 0.05) -> dict[str, float]:
