@@ -93,13 +93,72 @@ def test_a_free_container_sticks_then_accelerates_then_sticks_again():
     th = math.radians(20.0)
     hold = 0.5 * (2.0 * g * math.cos(th) + 4.0)  # rim friction with 4 N carried by the wall
     own = 2.0 * g * math.sin(th)
-    assert box.velocity(hold - own - 1e-6, th, load=4.0, dt=1e-3) == 0.0  # held
+    assert box.velocity(hold - own - 1e-6, th, 4.0, 1e-3) == 0.0  # held
     # pushed 2 N past its rim friction: a = 2 N / 2 kg for 1 ms
-    v1 = box.velocity(hold - own + 2.0, th, load=4.0, dt=1e-3)
+    v1 = box.velocity(hold - own + 2.0, th, 4.0, 1e-3)
     assert v1 == pytest.approx(1e-3)
     # moving, kinetic friction acts against the velocity: net 2 N again, it keeps accelerating
-    assert box.velocity(hold - own + 2.0, th, load=4.0, dt=1e-3) == pytest.approx(2e-3)
-    # pushed back uphill hard enough to reverse: it stops instead of swinging back
-    assert box.velocity(-100.0, th, load=4.0, dt=1e-3) == 0.0
+    assert box.velocity(hold - own + 2.0, th, 4.0, 1e-3) == pytest.approx(2e-3)
+    # no push: its weight's slope component is within the rim's hold, friction brakes it
+    assert box.velocity(0.0, th, 4.0, 5e-4) == pytest.approx(2e-3 + (own - hold) * 5e-4 / 2.0)
+    # held back by a pull that cancels its weight: friction stops it within the step, and at
+    # the turn the rim holds it instead of letting it swing back
+    assert box.velocity(-own, th, 4.0, 1e-2) == 0.0
+    assert box.velocity(-own, th, 4.0, 1e-2) == 0.0
     with pytest.raises(ConfigError, match="container_mass above 0"):
         FreeContainer(0.0, 0.5)
+
+
+def test_a_free_container_slides_uphill_against_its_rim_and_turns_when_it_cannot_hold():
+    from demcal.bench.incline import FreeContainer
+
+    g = 9.81
+    box = FreeContainer(weight_c=1.0 * g, mu=0.4)  # 1 kg, flat plate: its weight does not drive it
+    hold = 0.4 * g
+    # pulled uphill 3 N past the hold: friction points downhill, a = -3 m/s2
+    assert box.velocity(-(hold + 3.0), 0.0, 0.0, 1e-3) == pytest.approx(-3e-3)
+    # moving uphill with no pull, friction decelerates it (0.4 g for 0.5 ms), then, in a
+    # longer step that would turn it, the rim holds it where it stops
+    assert box.velocity(0.0, 0.0, 0.0, 5e-4) == pytest.approx(-3e-3 + hold * 5e-4)
+    assert box.velocity(0.0, 0.0, 0.0, 1e-2) == 0.0
+    # moving uphill, then pushed downhill past the hold: it turns and breaks away downhill
+    box.velocity(-(hold + 3.0), 0.0, 0.0, 1e-3)
+    assert box.velocity(hold + 50.0, 0.0, 0.0, 1e-3) == pytest.approx(50.0 * 1e-3)
+
+
+def test_the_rim_reporter_passes_the_wall_load_and_steps_a_free_body_symplectically():
+    """_Rim: the load is minus the wall force's normal component (a force on the wall,
+    as for the film), and a free body moves by its new velocity, a rigid one by its old."""
+    import math
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from demcal.bench.common import DrivenTranslation
+    from demcal.bench.incline import FreeContainer, RigidContainer, _Rim
+
+    g = 9.81
+    seen = {}
+
+    class Body(FreeContainer):
+        def velocity(self, fx, theta, load, dt):
+            seen.update(fx=fx, load=load, dt=dt)
+            return super().velocity(fx, theta, load, dt)
+
+    def sim_with(force):
+        return SimpleNamespace(step_count=10, dt=1e-4,
+                               wall_forces=lambda: {"container": (np.array(force), np.zeros(3))})
+
+    for body, moves_with_new in ((Body(1.0 * g, 0.0), True), (RigidContainer(0.0, 0.0, 0.05, g), False)):
+        motion = DrivenTranslation()
+        motion.place((0.01, 0.0, 0.0), (0.002, 0.0, 0.0))
+        tilt = SimpleNamespace(_origin=0, interval=50, theta=0.0, motion=motion)
+        rim = _Rim(tilt, body, 5)
+        rim.report(sim_with([3.0, 0.0, -2.5]))  # pushed 3 N downhill, pressed 2.5 N onto the film
+        v_new = motion.velocity[0]
+        step = (v_new if moves_with_new else 0.002) * 5 * 1e-4
+        assert motion.offset[0] == pytest.approx(0.01 + step)
+        if moves_with_new:
+            assert seen == {"fx": 3.0, "load": 2.5, "dt": pytest.approx(5e-4)}
+            assert v_new == pytest.approx(3.0 * 5e-4)  # from rest, 3 N on 1 kg for 0.5 ms
+    assert math.isfinite(v_new)

@@ -381,9 +381,13 @@ class _Rim:
         if into == 0:  # the end of a tilt interval: this piece was its last, maybe short
             n_k = self.tilt.interval % self.interval or self.interval
         motion = self.tilt.motion
-        f = sim.wall_forces()["container"][0]
+        f = sim.wall_forces()["container"][0]  # the particles' force on it over the piece just run
         vc = self.body.velocity(float(f[0]), self.tilt.theta, load=-float(f[2]), dt=n_k * sim.dt)
-        xc = motion.offset[0] + motion.velocity[0] * n_k * sim.dt
+        # A free body steps symplectic Euler (the new velocity, from the force where it
+        # stood, moves it; with the old one this would be forward Euler, unstable against
+        # the bed's stiffness); the overdamped rigid container keeps its first order.
+        step = vc if self.body.integrates else motion.velocity[0]
+        xc = motion.offset[0] + step * n_k * sim.dt
         motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
 
 
@@ -398,13 +402,16 @@ class RigidContainer:
     frictionless wall). It stays put while the push plus its own weight's slope component
     is within the rim's static friction ``mu (weight_c cos(theta) + load)``, and otherwise
     gives way at ``v_ref`` times the excess over ``weight`` (the material's weight) [m/s]:
-    the overdamped limit of a free body,
-    which needs no mass of its own (an explicit free body of the container's mass would be
-    stable only with a step below ``2 sqrt(m / k_bed)``, far below the update interval).
+    the overdamped limit of a free body, which needs no mass of its own (a free body,
+    :class:`FreeContainer`, steps stably at the update interval only above a mass of
+    ``k_bed dt^2 / 4``).
     With ``weight_c = 0`` it is a massless container that only keeps the material
     together: the downhill wall cannot hold the material back unless the uphill wall
     pushes it equally, so the bed slides only when its base does.
     """
+
+    #: Its velocity is a function of the force, not integrated (see :class:`_Rim`).
+    integrates = False
 
     def __init__(self, weight_c: float, mu: float, v_ref: float, weight: float):
         self.weight_c, self.mu, self.v_ref, self.weight = weight_c, mu, v_ref, weight
@@ -426,13 +433,15 @@ class FreeContainer:
     ``load`` the particles put on it through the wall's friction (Janssen's effect). At
     rest it sticks while the along-slope drive (the particles' push ``fx`` plus its own
     weight's slope component) is within ``mu`` times that normal force; moving, it
-    accelerates under the drive less the rim's friction against its velocity, and sticks
-    again where the velocity would change sign. One explicit step of ``dt`` per call
-    (symplectic Euler, the engine's own scheme): stable while ``dt`` stays below
-    ``2 sqrt(m / k)`` with ``k`` the bed's stiffness against the wall, which
-    ``incline.container_mass`` of a few per cent of the material's already gives at the
-    0.5 ms update (a stiffness of 2e5 N/m against a 1 kg bed: 2 %).
+    accelerates under the drive less the rim's friction against its velocity, and where
+    the velocity would change sign it stops if the rim can hold it there. One step of
+    ``dt`` per call; :class:`_Rim` moves it with the new velocity (symplectic Euler), which
+    is stable for a container mass ``m`` while ``dt < 2 sqrt(m / k)``, ``k`` the bed's
+    stiffness against the wall: at the 0.5 ms update, 2e5 N/m needs 13 g.
     """
+
+    #: :class:`_Rim` steps its position with the velocity this returns.
+    integrates = True
 
     def __init__(self, weight_c: float, mu: float):
         if weight_c <= 0.0:
@@ -442,17 +451,19 @@ class FreeContainer:
         self.mass = weight_c / C.G
         self.v = 0.0
 
-    def velocity(self, fx: float, theta: float, load: float = 0.0, dt: float = 0.0) -> float:
+    def velocity(self, fx: float, theta: float, load: float, dt: float) -> float:
         drive = fx + self.weight_c * math.sin(theta)
         hold = self.mu * max(self.weight_c * math.cos(theta) + load, 0.0)
-        if self.v == 0.0:
-            if abs(drive) <= hold:
-                return 0.0
-            self.v = math.copysign(abs(drive) - hold, drive) * dt / self.mass
-            return self.v
-        v = self.v + (drive - math.copysign(hold, self.v)) * dt / self.mass
-        self.v = 0.0 if v * self.v < 0.0 else v
-        return self.v
+        held = abs(drive) <= hold
+        if self.v == 0.0 and held:
+            return 0.0
+        against = self.v if self.v != 0.0 else drive  # friction opposes the motion, or the break-away
+        v = self.v + (drive - math.copysign(hold, against)) * dt / self.mass
+        if self.v != 0.0 and v * self.v <= 0.0:  # it turns within this step
+            # the rim stops it there if it can; otherwise it breaks away the other way
+            v = 0.0 if held else math.copysign(abs(drive) - hold, drive) * dt / self.mass
+        self.v = v
+        return v
 
 
 def base_kinematics(st, touch: float = 0.05) -> dict[str, float]:
