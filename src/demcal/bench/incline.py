@@ -47,8 +47,9 @@ The simulation
   particles (0 by default), through which it carries part of the material's weight onto
   its rim. Measured at the medium profile (docs/validation.md, "A container that slides
   with the material"): a free container whose rim has the material's own friction
-  raises the onset by 0.5-1.3 deg; a heavy one gripping the film harder than the material
-  makes the response its own (about 24 deg whatever mu').
+  raises the onset by 0.7-1.5 deg; a heavy one gripping the film harder than the material
+  makes the response mostly its own (22.9-26.5 deg over mu' 0.4-0.6, 1.8 deg per 0.1 of
+  mu' where atan mu' moves 4.6).
 * **Onset of sliding.** Every 5 ms the mass-weighted mean velocity of the material along
   the slope ``v`` is recorded. Sliding is detected when ``v`` exceeds
   ``incline.slide_speed`` (default 0.02 m/s). A block starting to slide on a plane tilted
