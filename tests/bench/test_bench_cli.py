@@ -86,6 +86,8 @@ def test_json_output(capsys):
     (["bench", "impact", "--vtk"], "--vtk needs --out"),
     (["bench", "incline", "--profile", "tiny", "--set", "incline.container=free"],
      "needs incline.container_mass above 0"),
+    (["bench", "incline", "--profile", "tiny", "--set", "incline.container=rigid",
+      "--set", "incline.container_wall_friction=0.6"], "use incline.container = \"free\""),
 ])
 def test_bad_input_is_one_sentence_and_exit_2(capsys, argv, words):
     assert main(argv) == 2

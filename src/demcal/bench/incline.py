@@ -147,7 +147,7 @@ class Incline(BenchExperiment):
                     "rigid or free container: static friction of its rim on the film", 0.0, 2.0),
             Setting("incline.container_wall_friction", 0.0, "-",
                     "static friction between the particles and the container's wall (0: a "
-                    "frictionless wall)", 0.0, 2.0),
+                    "frictionless wall; the rigid container refuses a rough one: use free)", 0.0, 2.0),
             Setting("incline.slide_speed", 0.02, "m/s",
                     "mean velocity along the slope that counts as sliding", 1e-4, 1.0),
             Setting("incline.visible_mm", 2.0, "mm",
@@ -172,6 +172,12 @@ class Incline(BenchExperiment):
         block = s["incline.material"] == "block"
         if not block and s["incline.container"] == "free" and float(s["incline.container_mass"]) <= 0.0:
             FreeContainer(0.0, 0.0)  # its one sentence, before any particle is made
+        if not block and s["incline.container"] == "rigid" and float(s["incline.container_wall_friction"]) > 0.0:
+            # measured (benchmarks/studies/container-wall-2026-11-28, overdamped rows): a rough
+            # wall drags the bed at the yield law's creeping pace, onsets 11-13 deg, detections 34-39
+            raise ConfigError("incline.container = \"rigid\" gives way at a yield speed, so a rough wall "
+                              "(incline.container_wall_friction > 0) would pace the material by that law; "
+                              "use incline.container = \"free\" for a container with wall friction.")
         film = C.material_of(s, "film")
         mats = [C.material_of(s), film, steel()]
         def wall_of(mu_wall):
