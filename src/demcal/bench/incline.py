@@ -180,6 +180,7 @@ class Incline(BenchExperiment):
                               "use incline.container = \"free\" for a container with wall friction.")
         film = C.material_of(s, "film")
         mats = [C.material_of(s), film, steel()]
+
         def wall_of(mu_wall):
             return Interaction(restitution=s["wall.restitution"], static_friction=mu_wall, rolling_friction=0.0,
                                damping_factor=s["wall.damping_factor"],
@@ -406,7 +407,7 @@ class RigidContainer:
     [N] along the slope (their contacts with its wall) and, through the wall's friction
     (``incline.container_wall_friction``), press it onto the film with ``load`` [N] (the
     part of the material's weight that the wall carries, Janssen's effect; 0 with a
-    frictionless wall). It stays put while the push plus its own weight's slope component
+    frictionless wall, the only wall the bench lets it have). It stays put while the push plus its own weight's slope component
     is within the rim's static friction ``mu (weight_c cos(theta) + load)``, and otherwise
     gives way at ``v_ref`` times the excess over ``weight`` (the material's weight) [m/s]:
     the overdamped limit of a free body, which needs no mass of its own (a free body,
