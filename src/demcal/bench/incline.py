@@ -399,7 +399,23 @@ class _Rim:
         motion.place((xc, 0.0, 0.0), (vc, 0.0, 0.0))
 
 
-class RigidContainer:
+class _Ring:
+    """What the rigid and the free container share: a ring of weight ``weight_c`` [N] on
+    the film with rim friction ``mu``."""
+
+    weight_c: float
+    mu: float
+
+    def rim(self, fx: float, theta: float, load: float) -> tuple[float, float]:
+        """The along-slope drive on the ring (the particles' push ``fx`` plus its own
+        weight's component) and the rim's friction limit, ``mu`` times its normal force
+        (its weight's component plus the ``load`` the wall carries; a wall pulled up lifts
+        the rim, never below zero)."""
+        drive = fx + self.weight_c * math.sin(theta)
+        return drive, self.mu * max(self.weight_c * math.cos(theta) + load, 0.0)
+
+
+class RigidContainer(_Ring):
     """The along-slope motion of a rigid bottomless container moved only by the forces on it.
 
     The container (``incline.container = "rigid"``) is a rigid ring of weight ``weight_c``
@@ -407,8 +423,9 @@ class RigidContainer:
     [N] along the slope (their contacts with its wall) and, through the wall's friction
     (``incline.container_wall_friction``), press it onto the film with ``load`` [N] (the
     part of the material's weight that the wall carries, Janssen's effect; 0 with a
-    frictionless wall, the only wall the bench lets it have). It stays put while the push plus its own weight's slope component
-    is within the rim's static friction ``mu (weight_c cos(theta) + load)``, and otherwise
+    frictionless wall, the only wall the bench lets it have). It stays put while the push
+    plus its own weight's slope component is within the rim's static friction
+    ``mu (weight_c cos(theta) + load)``, and otherwise
     gives way at ``v_ref`` times the excess over ``weight`` (the material's weight) [m/s]:
     the overdamped limit of a free body, which needs no mass of its own (a free body,
     :class:`FreeContainer`, steps stably at the update interval only above a mass of
@@ -425,13 +442,12 @@ class RigidContainer:
         self.weight_c, self.mu, self.v_ref, self.weight = weight_c, mu, v_ref, weight
 
     def velocity(self, fx: float, theta: float, load: float = 0.0, dt: float = 0.0) -> float:
-        drive = fx + self.weight_c * math.sin(theta)
-        normal = max(self.weight_c * math.cos(theta) + load, 0.0)  # a wall pulled up lifts the rim
-        excess = max(abs(drive) - self.mu * normal, 0.0)
+        drive, hold = self.rim(fx, theta, load)
+        excess = max(abs(drive) - hold, 0.0)
         return float(np.clip(math.copysign(excess, drive) * self.v_ref / self.weight, -0.5, 0.5))
 
 
-class FreeContainer:
+class FreeContainer(_Ring):
     """The lab's bottomless container as a free body sliding on the film (paper §3.1: the
     plate is stopped when "the bottomless container and the particulate material began to
     slide"; ``incline.container = "free"``).
@@ -460,8 +476,7 @@ class FreeContainer:
         self.v = 0.0
 
     def velocity(self, fx: float, theta: float, load: float, dt: float) -> float:
-        drive = fx + self.weight_c * math.sin(theta)
-        hold = self.mu * max(self.weight_c * math.cos(theta) + load, 0.0)
+        drive, hold = self.rim(fx, theta, load)
         held = abs(drive) <= hold
         if self.v == 0.0 and held:
             return 0.0
