@@ -238,8 +238,10 @@ LAB_KEYS = {
         "sd_deg": "its standard deviation [deg].",
         "n": "number of tests behind it.",
         "H_mm": "inclined-plane readings: the height at which the sample slid [mm]; "
-                "θ = arcsin(H / L) per reading.",
+                "θ = arcsin((H - H0) / L) per reading.",
         "L_mm": "the arm's length [mm]; default 300.",
+        "H0_mm": "the same point's height above the base with the plate level [mm]; default 0, "
+                 "the paper's Eq. 5 (exact only when the spindle's axis is level with that base).",
         "repeats": "readings per group (the mean of each group is one test).",
     },
 }

@@ -15,6 +15,24 @@ def test_sliding_angle_is_arcsin_h_over_l():
     assert sliding_angle(300.0 * np.sin(np.radians(25.42)))[0] == pytest.approx(25.42)
 
 
+def test_a_level_height_h0_is_taken_off_each_reading():
+    # a point L from the spindle stands H0 + L sin(theta) above the base: 171.2 mm with
+    # H0 = 21.2 mm on L = 300 mm is 30 deg exactly, where Eq. 5 alone reads 34.79 deg
+    assert sliding_angle([171.2], 300.0, 21.2)[0] == pytest.approx(30.0, abs=1e-12)
+    assert sliding_angle([171.2], 300.0)[0] == pytest.approx(np.degrees(np.arcsin(171.2 / 300.0)))
+    m = measure_incline([171.2, 171.2], 300.0, H0_mm=21.2)
+    assert m.mean_deg == pytest.approx(30.0) and m.to_dict()["H0_mm"] == 21.2
+    assert measure_incline([150.0]).to_dict()["H0_mm"] == 0.0
+
+
+@pytest.mark.parametrize("H, H0, match", [([20.0], 21.2, "between H0 and H0 \\+ L \\(21.2 and 321.2 mm\\)"),
+                                          ([322.0], 21.2, "between H0 and H0"),
+                                          ([100.0], -1.0, "H0 = -1.0 mm must be 0 or more")])
+def test_readings_outside_the_level_height_and_arm_are_data_errors(H, H0, match):
+    with pytest.raises(DataError, match=match):
+        sliding_angle(H, 300.0, H0)
+
+
 def test_groups_of_repeats_summarise_group_means():
     H = 300 * np.sin(np.radians([24, 25, 26, 27, 28, 29]))
     m = measure_incline(H, 300.0, repeats=3)
@@ -73,6 +91,9 @@ def test_record_from_dict_and_targets(tmp_path):
     assert targets["repose_angle_deg"].mean_deg == 31.07
     assert targets["sliding_angle_deg"].mean_deg == pytest.approx(
         np.degrees(np.arcsin(np.array([128, 131, 127]) / 300)).mean())
+    level = resolve_targets(LabRecord.from_dict({**d, "sliding": {**d["sliding"], "H0_mm": 20.0}}))
+    assert level["sliding_angle_deg"].mean_deg == pytest.approx(
+        np.degrees(np.arcsin((np.array([128, 131, 127]) - 20.0) / 300)).mean())
 
 
 @pytest.mark.parametrize("d, key", [
@@ -86,6 +107,7 @@ def test_record_from_dict_and_targets(tmp_path):
     ({"name": "x", "repose": {"mean_deg": 30, "photos": ["a.png"]}}, "photos"),
     ({"name": "x", "sliding": {"mean_deg": 95}}, "mean_deg"),
     ({"name": "x", "sliding": {"H_mm": [1, "a"]}}, "H_mm"),
+    ({"name": "x", "sliding": {"H_mm": [100], "H0_mm": -2}}, "H0_mm"),
 ])
 def test_record_errors_name_the_key(d, key):
     with pytest.raises(ConfigError, match=key):

@@ -15,6 +15,15 @@ def test_incline_json(capsys):
     assert out["mean_deg"] == pytest.approx(30.0)
 
 
+def test_incline_level_height(capsys):
+    assert main(["measure", "incline", "--H", "170", "170", "--L", "300", "--H0", "20"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == ("sliding angle 30.00 +- 0.00 deg over 2 readings "
+                                                        "(L = 300 mm, H0 = 20 mm)")
+    assert main(["measure", "incline", "--H", "10", "--H0", "20"]) == 2
+    err = capsys.readouterr().err
+    assert "each H must lie between H0 and H0 + L (20 and 320 mm)" in err and err.count("\n") == 1
+
+
 def test_incline_bad_reading_is_one_sentence(capsys):
     assert main(["measure", "incline", "--H", "400", "--L", "300"]) == 2
     err = capsys.readouterr().err

@@ -50,6 +50,9 @@ def register(subparsers) -> None:
                          help="heights of the container's starting point [mm]")
     incline.add_argument("--L", dest="L", type=float, default=300.0, metavar="MM",
                          help="distance from that point to the spindle [mm] (default 300)")
+    incline.add_argument("--H0", dest="H0", type=float, default=0.0, metavar="MM",
+                         help="height of that point above the base with the plate level [mm] "
+                              "(default 0, the paper's Eq. 5: theta = arcsin((H - H0) / L))")
     incline.add_argument("--repeats", type=int, help="readings per group, in order")
     add_json(incline, "print JSON")
 
@@ -117,7 +120,7 @@ def _cores() -> int:
 def _incline(args) -> int:
     from demcal.measure.incline import measure_incline
 
-    m = measure_incline(args.H, args.L, args.repeats)
+    m = measure_incline(args.H, args.L, args.repeats, args.H0)
     if args.json:
         print(json.dumps(m.to_dict(), indent=2))
         return 0
@@ -125,5 +128,6 @@ def _incline(args) -> int:
         print(f"reading {i}: H = {h:g} mm -> theta = {a:.2f} deg")
     over = "group means" if m.group_means_deg is not None else "readings"
     sd = f" +- {m.sd_deg:.2f}" if m.n > 1 else ""
-    print(f"sliding angle {m.mean_deg:.2f}{sd} deg over {m.n} {over} (L = {args.L:g} mm)")
+    level = f", H0 = {args.H0:g} mm" if args.H0 else ""
+    print(f"sliding angle {m.mean_deg:.2f}{sd} deg over {m.n} {over} (L = {args.L:g} mm{level})")
     return 0

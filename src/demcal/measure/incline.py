@@ -6,6 +6,14 @@ the height ``H`` of the container's starting point above the base is read, and w
 
     theta = arcsin(H / L)                      (IJABE 2020, Eq. 5)
 
+A point at distance ``L`` from the spindle's axis stands ``H0 + L sin(theta)`` above the
+base, where ``H0`` is its height with the plate level. Eq. 5 is therefore the plate's
+tilt only when ``H0`` is 0 (the spindle's axis level with the base it is measured
+from); otherwise ``theta = arcsin((H - H0) / L)``, and Eq. 5 reads every angle high by
+a constant in sine (``H0 / L``: 7 % of ``L`` adds 4.6 deg at 26.6 deg; docs/validation.md,
+"The incline read as late as a supported choice allows"). ``H0`` defaults to 0, the
+paper's formula.
+
 The paper runs 10 groups of 3 repeats and reports the mean +- sd
 (25.42 +- 2.6 deg and 30.46 +- 3.2 deg, Section 3.1).
 """
@@ -33,6 +41,7 @@ class InclineMeasurement:
     group_means_deg : mean angle of each group (``None`` without ``repeats``).
     summary : :class:`Summary` behind the headline figures (with a 95 % CI).
     L_mm : arm length used [mm].
+    H0_mm : height of the starting point above the base with the plate level [mm].
     """
 
     angles_deg: np.ndarray
@@ -42,6 +51,7 @@ class InclineMeasurement:
     group_means_deg: np.ndarray | None
     summary: Summary
     L_mm: float
+    H0_mm: float = 0.0
 
     def to_dict(self) -> dict:
         return {
@@ -52,31 +62,38 @@ class InclineMeasurement:
             "n": self.n,
             "ci95_deg": [self.summary.ci_low, self.summary.ci_high],
             "L_mm": self.L_mm,
+            "H0_mm": self.H0_mm,
         }
 
 
-def sliding_angle(H_mm, L_mm: float = 300.0) -> np.ndarray:
-    """``theta = arcsin(H / L)`` [deg] for each reading ``H`` [mm].
+def sliding_angle(H_mm, L_mm: float = 300.0, H0_mm: float = 0.0) -> np.ndarray:
+    """``theta = arcsin((H - H0) / L)`` [deg] for each reading ``H`` [mm] (Eq. 5 with
+    ``H0 = 0``).
 
     Raises
     ------
     DataError
-        ``L`` not positive, or a reading negative or larger than ``L``.
+        ``L`` not positive, ``H0`` negative, or a reading below ``H0`` or above ``H0 + L``.
     """
     H = np.atleast_1d(np.asarray(H_mm, dtype=float))
     if not np.isfinite(L_mm) or L_mm <= 0:
         raise DataError(f"the arm length L = {L_mm} mm must be a positive number.")
+    if not np.isfinite(H0_mm) or H0_mm < 0:
+        raise DataError(f"the level height H0 = {H0_mm} mm must be 0 or more (the starting point's "
+                        f"height above the base with the plate level).")
     if H.size == 0:
         raise DataError("there are no inclined-plane readings H to convert.")
-    bad = ~np.isfinite(H) | (H < 0) | (H > L_mm)
+    bad = ~np.isfinite(H) | (H < H0_mm) | (H > H0_mm + L_mm)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
+        span = "0 and L" if H0_mm == 0 else f"H0 and H0 + L ({H0_mm:g} and {H0_mm + L_mm:g} mm)"
         raise DataError(f"reading {i + 1}: H = {H[i]} mm is impossible with L = {L_mm} mm; "
-                        f"each H must lie between 0 and L.")
-    return np.degrees(np.arcsin(H / L_mm))
+                        f"each H must lie between {span}.")
+    return np.degrees(np.arcsin((H - H0_mm) / L_mm))
 
 
-def measure_incline(H_mm, L_mm: float = 300.0, repeats: int | None = None) -> InclineMeasurement:
+def measure_incline(H_mm, L_mm: float = 300.0, repeats: int | None = None,
+                    H0_mm: float = 0.0) -> InclineMeasurement:
     """Convert readings to angles and summarise them.
 
     Parameters
@@ -86,15 +103,18 @@ def measure_incline(H_mm, L_mm: float = 300.0, repeats: int | None = None) -> In
     L_mm : distance from the container's starting point to the spindle [mm].
     repeats : readings per group; if given (or ``H_mm`` is 2-D), the headline mean +- sd
         is over the group means.
+    H0_mm : the starting point's height above the base with the plate level [mm]
+        (0: the paper's Eq. 5).
     """
     H = np.asarray(H_mm, dtype=float)
     if H.ndim == 2:
         repeats = H.shape[1]
-    angles = sliding_angle(H.ravel(), L_mm)
+    angles = sliding_angle(H.ravel(), L_mm, H0_mm)
     groups = None
     if repeats is not None:
         if repeats < 1 or angles.size % repeats:
             raise DataError(f"{angles.size} readings cannot be split into groups of {repeats} repeats.")
         groups = angles.reshape(-1, repeats).mean(axis=1)
     summary = summarize(angles if groups is None else groups)
-    return InclineMeasurement(angles, summary.mean, summary.sd, summary.n, groups, summary, float(L_mm))
+    return InclineMeasurement(angles, summary.mean, summary.sd, summary.n, groups, summary, float(L_mm),
+                              float(H0_mm))

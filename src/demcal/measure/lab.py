@@ -27,7 +27,7 @@ Accepted table (TOML shown; every key but ``name`` is optional)::
     mean_deg = 25.42
     sd_deg = 2.6
     n = 10
-    # ... or measured: H_mm = [...], L_mm = 300, repeats = 3
+    # ... or measured: H_mm = [...], L_mm = 300, repeats = 3, H0_mm = 0
 
 The reference paper's two samples (IJABE 2020, Table 1 and Sections 2.1 and 3.1) are in
 :func:`paper_records`.
@@ -172,11 +172,13 @@ def _key(path) -> str:
 
 @dataclass(frozen=True)
 class InclineReadings:
-    """Ruler readings of the inclined-plane test: H per reading [mm], arm L [mm]."""
+    """Ruler readings of the inclined-plane test: H per reading [mm], arm L [mm], and the
+    starting point's height above the base with the plate level, H0 [mm]."""
 
     H_mm: tuple[float, ...]
     L_mm: float = 300.0
     repeats: int | None = None
+    H0_mm: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -303,7 +305,8 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
     if record.sliding is not None:
         out["sliding_angle_deg"] = record.sliding
     elif record.incline is not None:
-        inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats)
+        inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats,
+                              record.incline.H0_mm)
         out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, "incline readings")
     return out
 
@@ -441,12 +444,13 @@ def _repose(t, where):
 
 def _sliding(t, where):
     given = _given_or_measured(t, where, "sliding", "H_mm", "H_mm/L_mm", "'H_mm' readings",
-                               ("H_mm", "L_mm", "repeats"))
+                               ("H_mm", "L_mm", "repeats", "H0_mm"))
     if given is not None:
         return given, None
     H = _numbers(t, "H_mm", f"{where} sliding")
     L = _number(t, "L_mm", f"{where} sliding", 0.0, None, open_low=True)
+    H0 = _number(t, "H0_mm", f"{where} sliding", 0.0, None)
     repeats = t.get("repeats")
     if repeats is not None and (isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1):
         raise ConfigError(f"{where} sliding: 'repeats' must be a whole number >= 1.")
-    return None, InclineReadings(tuple(H), 300.0 if L is None else L, repeats)
+    return None, InclineReadings(tuple(H), 300.0 if L is None else L, repeats, 0.0 if H0 is None else H0)
