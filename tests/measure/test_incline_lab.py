@@ -94,6 +94,8 @@ def test_record_from_dict_and_targets(tmp_path):
     level = resolve_targets(LabRecord.from_dict({**d, "sliding": {**d["sliding"], "H0_mm": 20.0}}))
     assert level["sliding_angle_deg"].mean_deg == pytest.approx(
         np.degrees(np.arcsin((np.array([128, 131, 127]) - 20.0) / 300)).mean())
+    assert (targets["sliding_angle_deg"].source, level["sliding_angle_deg"].source) == (
+        "incline readings", "incline readings, H0 20 mm")
 
 
 @pytest.mark.parametrize("d, key", [

@@ -307,7 +307,8 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
     elif record.incline is not None:
         inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats,
                               record.incline.H0_mm)
-        out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, "incline readings")
+        level = f", H0 {inc.H0_mm:g} mm" if inc.H0_mm else ""
+        out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, f"incline readings{level}")
     return out
 
 
