@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 STUDY = "benchmarks/studies/bench-profiles-2026-11-25"
 BEYOND = "benchmarks/studies/bias-beyond-box-2026-11-27"
 PROXY = "benchmarks/studies/incline-cheap-proxy-2026-11-27"
+CYLINDER = "benchmarks/studies/cylinder-paper-2026-11-28"
 #: (test, response, cheap, production, study files, date measured)
 ENTRIES = [
     # Seven Table 7 points (mu' 0.4-0.6), and since the sixteenth session the four points
@@ -45,6 +46,12 @@ ENTRIES = [
     ("repose-funnel", "repose_angle_deg", "quick", "paper",
      [f"{STUDY}/results-funnel-paper.jsonl", f"{STUDY}/results-incline-and-quick.jsonl",
       f"{STUDY}/results-designs-device.jsonl"], "2026-11-27"),
+    # The lifted cylinder shares the funnel's reversal at the paper profile (a large type A
+    # heap creeps the more, the larger gamma): the Table 3 centre, a low corner and Table 4
+    # run 18, five quick seeds each against one paper run; three points carry no slope, so
+    # the gamma dependence is the stored scatter (run 16 at gamma 0.3 did not come to rest).
+    ("repose-cylinder", "repose_angle_deg", "quick", "paper",
+     [f"{CYLINDER}/results-paper.jsonl", f"{CYLINDER}/results-quick.jsonl"], "2026-11-28"),
 ]
 TARGET = ROOT / "src" / "demcal" / "data" / "profile_bias.json"
 

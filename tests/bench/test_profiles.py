@@ -110,6 +110,21 @@ def test_the_funnel_bias_is_stored_as_a_slope_in_the_rolling_friction():
     assert b.at({"particle.rolling_friction": 0.1})[0] > 5 > -5 > b.at({"particle.rolling_friction": 0.3})[0]
 
 
+def test_the_cylinder_bias_is_stored_and_changes_sign_with_the_rolling_friction():
+    """The lifted cylinder shares the funnel's reversal at the paper profile
+    (docs/validation.md, "The cylinder's stored bias"): paper - quick is negative at gamma
+    0.2 and positive at gamma 0.1, five quick seeds against one paper run a point."""
+    b = profiles.stored("repose-cylinder", "repose_angle_deg", "quick", "paper")
+    assert b is not None and len(b.points) >= 3
+    assert all(p["cheap_n"] == 5 and p["production_n"] == 1 for p in b.points)
+    by_gamma = {}
+    for p in b.points:
+        by_gamma.setdefault(p["settings"].get("particle.rolling_friction", 0.2), []).append(
+            p["production_mean"] - p["cheap_mean"])
+    assert max(by_gamma[0.2]) < 0 < min(by_gamma[0.1])
+    assert b.sd_points > 3  # the report and the loop carry that spread as the bias's uncertainty
+
+
 def test_the_stored_studies_measure_the_paper_incline_noise_once_per_point():
     """The paper-profile incline's seeds in the stored studies: 0.74 deg pooled over 22 df
     (eleven points of three seeds). quick -> paper and medium -> paper share their paper
@@ -129,6 +144,7 @@ def test_the_stored_studies_measure_the_paper_incline_noise_once_per_point():
 @pytest.mark.slow
 @pytest.mark.parametrize("test, response, cheap, first", [("incline", "sliding_angle_deg", "quick", None),
                                                           ("repose-funnel", "repose_angle_deg", "quick", None),
+                                                          ("repose-cylinder", "repose_angle_deg", "quick", None),
                                                           ("incline", "sliding_angle_deg", "medium", 3)])
 def test_the_cheap_profile_still_gives_the_stored_points(test, response, cheap, first):
     """A stored quick (or medium) -> paper bias holds while that profile gives what it
