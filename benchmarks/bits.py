@@ -4,7 +4,8 @@ The brief's rule for refactors: the quick benches with fixed seeds give the same
 before and after. This runs the configurations the sessions check (seed 1, one thread,
 each in its own process as `demcal bench` does) and writes every response, the step
 count and the simulated time as JSON; with ``--compare FILE`` it also says which differ
-from an earlier run of this script (exit status 1 if any).
+from an earlier run of this script (exit status 1 if any). Each printed line ends with
+the command's wall time (compilation included where the cache is cold).
 
     python benchmarks/bits.py --out /tmp/bits-after.json --compare /tmp/bits-before.json
 
@@ -46,7 +47,7 @@ def run(label: str, bench: str, profile: str, sets: list[str]) -> dict:
             "set": dict(item.split("=", 1) for item in sets)}
     row = run_one(case, seed=1, threads=1)
     keys = ("responses", "spread", "particles", "steps", "simulated_s", "error")
-    return {k: row[k] for k in keys if k in row}
+    return {k: row[k] for k in keys if k in row}, row["wall_s"]
 
 
 def main(argv=None) -> int:
@@ -59,8 +60,9 @@ def main(argv=None) -> int:
     for label, bench, profile, sets in CONFIGS:
         if args.only and args.only not in label:
             continue
-        figures[label] = run(label, bench, profile, sets)
-        print(f"{label}: {json.dumps(figures[label].get('responses', figures[label]))}", flush=True)
+        figures[label], wall = run(label, bench, profile, sets)
+        print(f"{label}: {json.dumps(figures[label].get('responses', figures[label]))} ({wall} s)",
+              flush=True)
     with open(args.out, "w") as f:
         json.dump(figures, f, indent=1, sort_keys=True)
     if not args.compare:

@@ -5,7 +5,9 @@ way of running it (``make``, a bare ``.venv/bin/demcal``, a script, the campaign
 workers, which inherit the environment) finds the same cache and compiles only once:
 ``NUMBA_CACHE_DIR`` when it is set, else a folder of :func:`numba_cache_dir` named
 after the hash of the engine's sources (:func:`engine_cache_dir`), so that code of two
-versions of the engine never shares cached kernels.
+versions of the engine never shares cached kernels. It also keeps numba from vectorising
+transcendental functions with Intel's SVML (:func:`_no_svml`), whose results depend on
+the instruction set.
 """
 
 import os
@@ -94,4 +96,15 @@ def _choose_numba_cache() -> None:
         numba.core.config.reload_config()
 
 
+def _no_svml() -> None:
+    """Set ``NUMBA_DISABLE_INTEL_SVML=1`` unless the user set it, before numba is
+    imported: where Intel's SVML library is installed (the ``icc_rt`` package) and
+    llvmlite supports it, numba vectorises ``math.sin``, ``math.pow`` and the like with
+    SVML, whose last bits depend on the vector width the compile target has. The
+    engine's results then differ between CPUs (docs/performance.md, "Portable bits").
+    :func:`demcal.dem._cache.ensure` says so if numba was imported first with SVML."""
+    os.environ.setdefault("NUMBA_DISABLE_INTEL_SVML", "1")
+
+
 _choose_numba_cache()
+_no_svml()

@@ -137,16 +137,35 @@ def prefer_openmp() -> None:
     numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
 
 
+#: Said once per process when numba vectorises with Intel's SVML (numba imported, with
+#: the library installed, before demcal could switch it off).
+SVML = ("demcal: numba uses Intel's SVML here, so results may differ from other CPUs; "
+        "import demcal before numba, or set NUMBA_DISABLE_INTEL_SVML=1")
+
+
+def warn_svml() -> None:
+    """Print :data:`SVML` when numba vectorises transcendental functions with SVML
+    (``demcal/__init__`` disables it when it is imported before numba)."""
+    import numba
+
+    if numba.config.USING_SVML:
+        try:
+            print(SVML, file=sys.stderr, flush=True)
+        except (OSError, ValueError):
+            pass
+
+
 _ensured = False
 
 
 def ensure() -> None:
     """Once per process, before the engine's first compiled call: :func:`guard` the
-    cache and :func:`prefer_openmp`. Called by the backend a simulation builds; code that
-    calls the engine's kernels directly calls it first."""
+    cache, :func:`prefer_openmp` and :func:`warn_svml`. Called by the backend a simulation
+    builds; code that calls the engine's kernels directly calls it first."""
     global _ensured
     if _ensured:
         return
     _ensured = True
     guard()
     prefer_openmp()
+    warn_svml()

@@ -38,7 +38,7 @@ from demcal.geometry.kernels import wall_distance
 from .contact.kernel import contact, reset_history, store_history
 from .contact.llvm_math import sqrt
 from .contact.normal import reach
-from .contact.registry import (H_FLAG, HIST_WIDTH, LOOP_FASTMATH, ROLLING_CONSTANT,
+from .contact.registry import (FASTMATH, H_FLAG, HIST_WIDTH, ROLLING_CONSTANT,
                                ROLLING_EPSD, ROLLING_LIMITED, ROLLING_RELATIVE, ROLLING_RVD)
 
 ACC_WIDTH = 6        # sacc columns: force on the sphere (3), torque on its body (3)
@@ -72,7 +72,7 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
     return vrx, vry, vrz, li, lj, inv_ir
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
 def pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, row_start, nbr, hist, pair_out, active, sacc,
                 halo_row, halo_slots, halo_slot, r0, r1, deferred, k0, lo, hi):
@@ -231,7 +231,7 @@ def commit_deferred(hist, active, deferred, halo_slot, halo_deferred, t0, t1):
         active[p] = deferred[k, H_FLAG] != 0.0
 
 
-@njit(cache=True, nogil=True, error_model="numpy", fastmath=LOOP_FASTMATH)
+@njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
 def wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, wall_start, wid, whist, wall_out, wactive, sacc,
                 wkind, wparams, wvel, womega, worigin, wmat, lo, hi):

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from demcal.errors import ConfigError
+from demcal.particles.insertion import random_quaternions
 
 from . import integrator as _integ
 from .checks import flags, floats, rows as _rows
@@ -69,15 +70,6 @@ class Batch:
         return 2 * (np.linalg.norm(self.centers, axis=1) + self.radii).max() * self.scales
 
 
-def _random_quaternions(n, rng):
-    """Uniform random rotations (Shoemake 1992, Graphics Gems III)."""
-    u1, u2, u3 = rng.random((3, n))
-    a = np.sqrt(1.0 - u1)
-    b = np.sqrt(u1)
-    return np.stack([a * np.sin(2 * np.pi * u2), a * np.cos(2 * np.pi * u2),
-                     b * np.sin(2 * np.pi * u3), b * np.cos(2 * np.pi * u3)], axis=1)
-
-
 def _template(template, radii, scales):
     """(template, scales) from ``template`` or ``radii``."""
     if radii is not None:
@@ -109,7 +101,7 @@ def _orientations(orientations, n, seed):
         if orientations != "random":
             raise ConfigError(
                 f"orientations must be quaternions, 'random' or None, got {orientations!r}.")
-        return _random_quaternions(n, np.random.default_rng(seed))
+        return random_quaternions(n, np.random.default_rng(seed))
     if orientations is None:
         return np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
     quat = _rows(orientations, n, 4, "orientations", "w, x, y, z")

@@ -34,14 +34,17 @@ from typing import Callable
 
 from demcal.errors import ConfigError
 
-#: Floating-point licences of the contact kernels when compiled on their own: fused
-#: multiply-add, reciprocals, reassociation and signed zeros, but not "no NaN / no inf"
-#: (a blow-up must still propagate to the positions, where the step loop detects it).
-FASTMATH = {"contract", "arcp", "reassoc", "nsz"}
-#: The contact loops (``dem/forces.py``), into which the kernels are inlined at numba IR
-#: level and whose flags therefore apply: fused multiply-add and reciprocals only, so
-#: that every sum keeps its order (results independent of the thread count).
-LOOP_FASTMATH = {"contract", "arcp"}
+#: numba's ``fastmath`` for every compiled function of the engine (the contact kernels,
+#: the contact loops of ``dem/forces.py`` into which they are inlined, the geometry
+#: kernels): none. Each licence lets LLVM pick the arithmetic per instruction set:
+#: ``contract`` fuses a multiply and an add into one FMA where the target has it,
+#: ``reassoc`` reorders sums to fill the vector registers the target has, ``arcp`` turns
+#: a division into a reciprocal estimate and a multiply, ``nsz`` folds expressions whose
+#: zero's sign then depends on what was folded. Without them every operation rounds as
+#: written, so the bits are the same for every x86-64 compile target
+#: (``NUMBA_CPU_NAME=generic``, ``haswell``, ``znver2``, unset) as well as for every
+#: thread count (docs/performance.md, "Portable bits"; tests/dem/test_portable_bits.py).
+FASTMATH = False
 
 SLOTS = ("normal", "damping", "tangential", "rolling")
 

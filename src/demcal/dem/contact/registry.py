@@ -17,7 +17,7 @@ from demcal.errors import ConfigError
 from . import damping, normal, rolling, tangential
 from .damping import (DAMPING_HYSTERETIC, DAMPING_NONE, DAMPING_TSUJI,  # noqa: F401
                       DAMPING_VISCOUS)
-from .declare import FASTMATH, LOOP_FASTMATH, SLOTS, SubModel  # noqa: F401
+from .declare import FASTMATH, SLOTS, SubModel  # noqa: F401
 from .normal import NORMAL_HERTZ, NORMAL_HYSTERETIC, NORMAL_LINEAR  # noqa: F401
 from .rolling import (ROLLING_CONSTANT, ROLLING_EPSD, ROLLING_LIMITED,  # noqa: F401
                       ROLLING_NONE, ROLLING_RELATIVE, ROLLING_RVD)
