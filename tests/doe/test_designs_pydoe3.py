@@ -4,7 +4,11 @@ pyDOE3 is not used where it gives another design.
 A campaign's run keys depend on the design matrix (its row order and values), so every
 design must stay identical: ``frozen_designs.json`` holds the SHA-256 (first 16 hex
 digits) of the float64 matrices that demcal's own generators produced for 408 calls
-before pyDOE3 was used (commit 3f67132), with the shape in the hash.
+before pyDOE3 was used (commit 3f67132), with the shape in the hash. The values are
+hashed at 12 significant digits, the precision a run key keeps
+(``campaign.store.run_key``): the CCD's alpha is a power (``f ** 0.25``) that the C
+library may round differently in the last bit on another CPU. The digests were rehashed
+this way from the matrices that matched the full-precision ones (2026-11-28).
 
 Published tables: Design-Expert's Box-Behnken order as printed in the reference paper's
 Tables 4 and 8 (``test_designs.py``); Montgomery, Design and Analysis of Experiments,
@@ -27,6 +31,7 @@ FROZEN = json.loads((Path(__file__).with_name("frozen_designs.json")).read_text(
 
 def _digest(matrix) -> str:
     m = np.ascontiguousarray(matrix, dtype=np.float64)
+    m = np.array([float(f"{v:.12g}") for v in m.ravel()]).reshape(m.shape)
     return hashlib.sha256(repr(m.shape).encode() + m.tobytes()).hexdigest()[:16]
 
 
