@@ -42,7 +42,7 @@ R0 = 0.0025          # [m] sphere radius at scale 1 (as the LIGGGHTS harness)
 SOLID_PER_PARTICLE = 1.7e-7  # [m3] bed volume per particle at ~0.6 packing fraction
 
 
-def build(n, clumps, threads, rolling, settle_time):
+def build(n, clumps, threads, rolling, settle_time, backend="cpu"):
     from demcal.dem import Simulation
     from demcal.geometry import Box, WallSet
     from demcal.particles.insertion import BoxRegion, insert
@@ -65,7 +65,8 @@ def build(n, clumps, threads, rolling, settle_time):
     walls = WallSet([Box(lower=(0, 0, 0), upper=(width, width, height), material=0,
                          name="box")])
     inter = Interaction(restitution=0.6, static_friction=0.4, rolling_friction=0.2)
-    sim = Simulation([soil()], inter, walls=walls, rolling_model=rolling, threads=threads)
+    sim = Simulation([soil()], inter, walls=walls, rolling_model=rolling, threads=threads,
+                     backend=backend)
     ins = insert(BoxRegion((0, 0, 0), (width, width, height)), n, template=template,
                  sizes=Uniform(0.5, 1.5), seed=12345)
     # add the particles in spatial (cell) order: neighbours in space are neighbours in
@@ -81,7 +82,7 @@ def build(n, clumps, threads, rolling, settle_time):
 BASE = 5000  # particles in the settled packing that larger ones are tiled from
 
 
-def tiled(base, n, clumps, threads, rolling):
+def tiled(base, n, clumps, threads, rolling, backend="cpu"):
     """A settled packing of n = k * BASE particles: k copies of the settled BASE bed side
     by side in a k-times wider box (then relaxed briefly by the caller). Settling 100,000
     particles from scratch would take hours on two cores; tiling gives the same bed depth,
@@ -102,7 +103,7 @@ def tiled(base, n, clumps, threads, rolling):
                          material=0, name="box")])
     inter = Interaction(restitution=0.6, static_friction=0.4, rolling_friction=0.2)
     sim = Simulation([soil()], inter, walls=walls, rolling_model=rolling, threads=threads,
-                     dt=base.dt)
+                     dt=base.dt, backend=backend)
     tpl = base.templates[0]
     for ix in range(nx):
         for iy in range(ny):
@@ -126,6 +127,7 @@ def main(argv=None):
     ap.add_argument("--settle-time", type=float, default=0.6, help="[s] simulated")
     ap.add_argument("--rebuild", action="store_true", help="rebuild the cached packing")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--backend", default="cpu", help="cpu or cuda (threads: the host's)")
     ap.add_argument("--liggghts", action="store_true",
                     help="also time LIGGGHTS on the same packing (spheres only)")
     args = ap.parse_args(argv)
@@ -134,7 +136,7 @@ def main(argv=None):
     n_req = args.particles
     tile = n_req > BASE and n_req % BASE == 0
     sim, _, _ = build(BASE if tile else n_req, args.clumps, args.threads,
-                               args.rolling, args.settle_time)
+                      args.rolling, args.settle_time, args.backend)
     path = packing_path(BASE if tile else n_req, args.clumps, args.rolling)
     t1 = time.perf_counter()
     sim.run(steps=1)
@@ -146,7 +148,7 @@ def main(argv=None):
         path.parent.mkdir(exist_ok=True)
         sim.save_checkpoint(path)
     if tile:
-        sim, _, _ = tiled(sim, n_req, args.clumps, args.threads, args.rolling)
+        sim, _, _ = tiled(sim, n_req, args.clumps, args.threads, args.rolling, args.backend)
         path = packing_path(n_req, args.clumps, args.rolling)
         if path.exists() and not args.rebuild:
             sim.load_checkpoint(path)
@@ -164,15 +166,18 @@ def main(argv=None):
     ke = sim.kinetic_energy()
     sim.run(steps=50)  # warm-up (neighbour list, caches)
     rebuilds0 = sim.rebuilds
+    split0 = dict(getattr(sim.engine_backend, "seconds", {}))
     t2 = time.perf_counter()
     sim.run(steps=args.steps)
     loop = time.perf_counter() - t2
+    split = {k: round(v - split0[k], 3) for k, v in getattr(sim.engine_backend, "seconds", {}).items()}
     n = sim.n_particles
     nbytes = sim.nbytes
     ncontacts = len(sim.contacts()[0])
     out = {
         "particles": n,
         "threads": args.threads,
+        "backend": args.backend,
         "steps": args.steps,
         "particle_steps_per_s": n * args.steps / loop,
         "compile_s": round(compile_s, 2),
@@ -185,6 +190,7 @@ def main(argv=None):
         "rebuilds": sim.rebuilds - rebuilds0,
         "kinetic_energy_J": ke,
         "loop_s": round(loop, 3),
+        **({"backend_seconds": split} if split else {}),
         "total_s": round(time.perf_counter() - t0, 1),
     }
     if args.liggghts and not args.clumps:

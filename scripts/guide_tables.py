@@ -182,6 +182,8 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("executor", "heartbeat_timeout_s"): "seconds after which a run claimed by a runner that "
                                          "stopped heartbeating (killed, machine lost) is taken over "
                                          "by another runner (default 120).",
+    ("executor", "backend"): "where the runs simulate: `cpu` (default) or `cuda` (an NVIDIA GPU "
+                             "with numba-cuda, `pip install 'demcal[cuda]'`; docs/dem.md).",
     ("report", "title"): "the report's title; default the campaign's name.",
     ("report", "reference_table"): "a CSV of a published design with its responses, re-analysed "
                                    "in the report's last section; inside the campaign folder.",

@@ -281,3 +281,30 @@ def test_design_option_of_another_kind_is_one_sentence(campaign_file):
     message = str(info.value)
     assert message.startswith("campaign.toml line ") and "\n" not in message, message
     assert "option 'generators' does not apply to a central-composite design" in message, message
+
+
+def test_the_executor_names_its_backend(campaign_file):
+    assert load_campaign(campaign_file()).executor.backend == "cpu"
+    cuda = load_campaign(campaign_file(replace={"[executor]": '[executor]\nbackend = "cuda"'}))
+    assert cuda.executor.backend == "cuda"
+    path = campaign_file(replace={"[executor]": '[executor]\nbackend = "gpu"'})
+    with pytest.raises(ConfigError, match=r"'backend' = 'gpu' is not known; did you mean 'cpu'"):
+        load_campaign(path)
+
+
+def test_a_cuda_campaign_without_a_gpu_is_one_sentence_before_any_run(campaign_file):
+    from numba import cuda
+
+    from demcal.campaign.runner import run_campaign
+    from demcal.campaign.store import Store
+
+    if cuda.is_available():
+        pytest.skip("this machine has a CUDA device")
+    campaign = load_campaign(campaign_file(replace={"[executor]": '[executor]\nbackend = "cuda"'}))
+    with pytest.raises(ConfigError, match="backend 'cuda'"):
+        run_campaign(campaign, progress=False)
+    store = Store(campaign.store_path, readonly=True)
+    try:
+        assert {r.status for r in store.records(None)} == {"pending"}
+    finally:
+        store.close()

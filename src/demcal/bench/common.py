@@ -329,7 +329,22 @@ def make_simulation(s: Mapping[str, Any], materials, interactions, walls, dt: fl
 
     return Simulation(materials, interactions, walls=walls, gravity=gravity, dt=dt,
                       contact_model=s["contact.model"], rolling_model=s["rolling.model"],
-                      domain=domain, skin=skin)
+                      domain=domain, skin=skin, backend=_BACKEND.get())
+
+
+#: The compute backend of the tests run in this thread (see :func:`on_backend`).
+_BACKEND: contextvars.ContextVar[str] = contextvars.ContextVar("backend", default="cpu")
+
+
+@contextlib.contextmanager
+def on_backend(name: str):
+    """Within the block, the bench tests simulate on backend ``name`` (``cpu`` or ``cuda``,
+    :data:`demcal.dem.backend.BACKENDS`); checked by the Simulation it makes."""
+    token = _BACKEND.set(name)
+    try:
+        yield name
+    finally:
+        _BACKEND.reset(token)
 
 
 #: The :class:`Progress` of the test running in this thread (see :func:`showing`).

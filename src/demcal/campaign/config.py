@@ -26,7 +26,7 @@ example)::
                     box_moves, box_replicates, path_points, path_replicates, verify_on_path,
                     stored_noise, replicate_batch (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
-    [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s
+    [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s, backend
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
                     tables each report table reproduces, e.g. ``factors = "paper Table 3"``:
                     only a campaign that reproduces a publication names one; see
@@ -90,7 +90,8 @@ _ALLOWED: dict[str, tuple[str, ...]] = {
                     "box_replicates", "path_points", "path_replicates", "verify_on_path", "stored_noise",
                     "replicate_batch"),
     "budget": ("runs", "cpu_hours"),
-    "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s"),
+    "executor": ("kind", "workers", "scheduler", "start_method", "heartbeat_timeout_s",
+                 "backend"),
     "report": ("title", "reference_table", "captions"),
 }
 #: ``[report] captions`` keys: the report table (or text) each one's source is added to.
@@ -101,6 +102,7 @@ CAPTION_KEYS = ("targets", "sieve", "factors", "design", "calibrated", "verifica
 _REQUIRED_TABLES = ("campaign", "experiment", "factors", "conditions")
 _MODEL_ORDERS = ("linear", "2fi", "quadratic", "cubic")
 _EXECUTOR_KINDS = ("local", "dask")
+_BACKENDS = ("cpu", "cuda")
 _START_METHODS = ("spawn", "forkserver")
 
 
@@ -230,6 +232,7 @@ class ExecutorConfig:
     scheduler: str | None = None  #: dask scheduler address, e.g. tcp://host:8786
     start_method: str = "spawn"
     heartbeat_timeout_s: float = 120.0
+    backend: str = "cpu"  #: the compute backend of every run (demcal.dem.backend.BACKENDS)
 
 
 @dataclass(frozen=True)
@@ -1039,6 +1042,7 @@ class _Loader:
             scheduler=scheduler,
             start_method=self.choice(data, "start_method", where, _START_METHODS, "spawn"),
             heartbeat_timeout_s=timeout,
+            backend=self.choice(data, "backend", where, _BACKENDS, "cpu"),
         )
 
 

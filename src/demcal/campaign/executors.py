@@ -62,17 +62,22 @@ def import_plugins(plugins: Sequence[str]) -> None:
 
 
 def simulate(test: str, profile: str, settings: Mapping[str, Any], seed: int,
-             out_dir: str | Path | None = None, plugins: Sequence[str] = ()) -> dict[str, Any]:
-    """Run one virtual experiment; a pure function of its arguments.
+             out_dir: str | Path | None = None, plugins: Sequence[str] = (),
+             backend: str = "cpu") -> dict[str, Any]:
+    """Run one virtual experiment on compute ``backend``; a pure function of its
+    arguments.
 
     Returns ``RunResult.to_dict()``: responses, spread, particle and step counts,
     simulated and wall time, artifact paths.
     """
+    from demcal.bench.common import on_backend
     from demcal.bench.registry import get_experiment
 
     import_plugins(plugins)
     experiment = get_experiment(test)
-    result = experiment.run(settings=dict(settings), seed=int(seed), profile=profile, out_dir=out_dir)
+    with on_backend(backend):
+        result = experiment.run(settings=dict(settings), seed=int(seed), profile=profile,
+                                out_dir=out_dir)
     return result.to_dict()
 
 
@@ -81,8 +86,9 @@ def execute(task: Mapping[str, Any]) -> dict[str, Any]:
 
     ``task`` holds ``test, profile, settings, seed, plugins, runs_dir, name`` and
     optionally ``tmp`` (the temporary folder's name, chosen by the runner so that it
-    can clean up after a worker it had to stop) and ``threads`` (numba threads for
-    this run). The artifacts of the run (and ``run.json`` with the resolved
+    can clean up after a worker it had to stop), ``threads`` (numba threads for
+    this run) and ``backend`` (``cpu`` or ``cuda``, recorded in ``run.json``). The
+    artifacts of the run (and ``run.json`` with the resolved
     configuration, ``result.json`` or ``error.txt``) are left in ``runs_dir/tmp``;
     the runner moves that folder to ``runs_dir/name`` when it records the run.
 
@@ -113,8 +119,10 @@ def execute(task: Mapping[str, Any]) -> dict[str, Any]:
             write_json_atomic(tmp / "run.json", {
                 "test": task["test"], "profile": task["profile"], "seed": task["seed"],
                 "overrides": dict(task["settings"]), "settings": resolved, "label": task.get("label", ""),
+                "backend": task.get("backend", "cpu"),
             })
-            result = simulate(task["test"], task["profile"], task["settings"], task["seed"], tmp)
+            result = simulate(task["test"], task["profile"], task["settings"], task["seed"], tmp,
+                              backend=task.get("backend", "cpu"))
             bad = finite_responses(result.get("responses", {}))
             if bad is not None:
                 raise _RunFailed(f"response '{bad}' is not a finite number ({result['responses'].get(bad)!r})")

@@ -227,6 +227,10 @@ def run_specs(
         before = store.counts(keys)
         summary.skipped = before["done"]
         if before["pending"]:
+            from demcal.dem.backend import BACKENDS
+
+            # one sentence now (numba-cuda or a GPU missing), not one failed run per run
+            BACKENDS[campaign.executor.backend].prepare()
             if executor is None:
                 config = campaign.executor
                 executor = make_executor(
@@ -395,6 +399,7 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                     "test": spec.test, "profile": spec.profile, "settings": dict(spec.settings),
                     "seed": spec.seed, "plugins": list(campaign.plugins), "label": spec.label,
                     "runs_dir": str(runs_dir), "name": spec.dirname, "tmp": tmp,
+                    "backend": campaign.executor.backend,
                 }
                 in_flight[executor.submit(task)] = (record, tmp)
             if not in_flight:

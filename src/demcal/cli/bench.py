@@ -43,6 +43,8 @@ def register(subparsers) -> None:
     parser.add_argument("--set", dest="sets", action="append", default=[], metavar="KEY=VALUE",
                         help="override a setting (repeatable); see `demcal bench NAME --help`")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--backend", default="cpu", choices=("cpu", "cuda"),
+                        help="compute backend (cuda: numba-cuda and an NVIDIA GPU)")
     parser.add_argument("--out", metavar="DIR", help="folder for the pictures (heap PNG) and VTK files")
     parser.add_argument("--vtk", action="store_true", help="also write VTK files of the run (needs --out)")
     add_json(parser, "print the result as JSON")
@@ -121,8 +123,13 @@ def run(args) -> int:
     from demcal.bench.registry import resolve_settings
 
     resolve_settings(experiment, overrides, args.profile)  # fail fast on bad keys and values
-    result = experiment.run(overrides, seed=args.seed, profile=args.profile, out_dir=args.out,
-                            vtk=args.vtk, progress=not args.json)
+    from demcal.bench.common import on_backend
+    from demcal.dem.backend import BACKENDS
+
+    BACKENDS[args.backend].prepare()  # fail fast: one sentence when cuda is missing
+    with on_backend(args.backend):
+        result = experiment.run(overrides, seed=args.seed, profile=args.profile,
+                                out_dir=args.out, vtk=args.vtk, progress=not args.json)
     data = result.to_dict()
     if args.json:
         print(json.dumps(data))

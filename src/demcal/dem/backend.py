@@ -2,10 +2,10 @@
 
 A backend takes the engine's containers (:mod:`demcal.dem.storage`) and evaluates the
 physics on them; the :class:`~demcal.dem.Simulation` decides *when* (neighbour rebuilds,
-walls, reporters). ``cpu`` (numba on the host's cores) is the only backend today; another
-(a numba.cuda one) implements the same four methods, plus ``prepare()`` (called before
-anything else in the process touches the device or its threads) and
-``default_threads()``:
+walls, reporters). ``cpu`` runs numba on the host's cores; ``cuda``
+(:mod:`demcal.dem.cuda`) runs the same kernels' source on a GPU. Each implements four
+methods, plus ``prepare()`` (called before anything else in the process touches the
+device or its threads) and ``default_threads()``:
 
 * ``forces(chosen, table, dt, gravity, store, walls, kick)``: contact forces of the
   pair and wall lists, then the per-body sums and (``kick``) the half kick;
@@ -73,10 +73,19 @@ class CpuBackend:
         worker (numba.set_num_threads) allows this process."""
         return numba.get_num_threads()
 
+    #: The CPU backend never rebuilds the lists inside ``steps`` (the host does; see
+    #: ``CudaBackend`` for what the step loop tells a backend that can).
+    host_rebuild_at = 0
+
     def __init__(self, threads: int):
         self.prepare()
         self.workers = Workers(threads)
         self.halo = None   # the split of the current pair list, built on first use
+
+    @staticmethod
+    def pop_rebuilds() -> int:
+        """Rebuilds done inside ``steps`` since the last call: none on the CPU."""
+        return 0
 
     @property
     def threads(self) -> int:
@@ -165,6 +174,8 @@ class CpuBackend:
             numba.set_num_threads(before)
 
 
-#: Compute backends present, by name. The kernels are written so the same source can be
-#: compiled with numba.cuda later; only the numba CPU backend exists today.
-BACKENDS = {"cpu": CpuBackend}
+from .cuda.backend import CudaBackend  # noqa: E402  (numba.cuda is imported on first use)
+
+#: Compute backends, by name: ``cuda`` needs numba-cuda and a GPU (or its simulator),
+#: and says so in one sentence when chosen without them.
+BACKENDS = {"cpu": CpuBackend, "cuda": CudaBackend}

@@ -72,6 +72,82 @@ def _relative_motion(rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, 
     return vrx, vry, vrz, li, lj, inv_ir
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def separation(xi, yi, zi, ri, j, spos, srad):
+    """The gap of sphere i (at x_i, radius r_i [m]) to sphere j, as :func:`pair_contact`
+    takes it: ``(j, r_j, r_i + r_j, |d|^2, d (3), x_j (3))`` with ``d = x_i - x_j``."""
+    rj = srad[j]
+    xj = spos[j, 0]
+    yj = spos[j, 1]
+    zj = spos[j, 2]
+    dx = xi - xj
+    dy = yi - yj
+    dz = zi - zj
+    rs = ri + rj
+    return j, rj, rs, dx * dx + dy * dy + dz * dz, dx, dy, dz, xj, yj, zj
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def apart(gap, held, normal, table, mati, ri, sbody, bmat):
+    """Whether the pair of :func:`separation`'s ``gap`` is apart: not overlapping, and
+    not a contact that ``held`` at the last step whose gap is still within the normal
+    sub-model's reach (0 for all but the cohesive ones)."""
+    j, rj, rs, d2 = gap[0], gap[1], gap[2], gap[3]
+    return d2 >= rs * rs and not (held and d2 < (rs + reach(
+        normal, table, mati, bmat[sbody[j]], ri * rj / rs)) ** 2)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def pair_contact(normal, damping, tangential, rolling, table, dt, hist, p, side_i, gap,
+                 sbody, bpos, bvel, bomega, bmass, biso, bmat):
+    """One touching pair slot p = (i, j) (every driver's, CPU and GPU alike).
+
+    ``side_i`` is i's side as the driver holds it: ``(r_i, o_i (3), v_i (3), w_i (3), m_i,
+    iso_i, mat_i)``, the sphere's radius, its centre relative to its body's centre of
+    mass, its body's velocity, spin, mass, rolling inertia and material; ``gap`` is
+    ``(j, r_j, r_i + r_j, |d|^2, d (3), x_j (3))`` with the separation ``d = x_i - x_j``,
+    ``|d|^2 < (r_i + r_j)^2`` (or within the normal sub-model's reach). (Two tuples: a
+    call of more than 30 arguments compiles to a ``*args`` call, which numba cannot
+    inline.) Returns the force on i
+    [N], the torque terms it adds to i's body and to j's body about their centres of
+    mass [N m] (lever x force plus the rolling torque), and the new history row (as
+    ``contact.kernel.contact`` returns it, for the driver to store)."""
+    ri, oix, oiy, oiz, vix, viy, viz, wix, wiy, wiz, mi, iso_i, mati = side_i
+    j, rj, rs, d2, dx, dy, dz, xj, yj, zj = gap
+    bj = sbody[j]
+    mj = bmass[bj]
+    d = sqrt(d2)
+    inv_d = 1.0 / d
+    delta = rs - d
+    nx = dx * inv_d
+    ny = dy * inv_d
+    nz = dz * inv_d
+    # levers to the middle of the overlap: x_c = x_i - a n = x_j + b n
+    a = ri - 0.5 * delta
+    b = rj - 0.5 * delta
+    aix = oix - a * nx
+    aiy = oiy - a * ny
+    aiz = oiz - a * nz
+    ajx = (xj - bpos[bj, 0]) + b * nx
+    ajy = (yj - bpos[bj, 1]) + b * ny
+    ajz = (zj - bpos[bj, 2]) + b * nz
+    wjx = bomega[bj, 0]
+    wjy = bomega[bj, 1]
+    wjz = bomega[bj, 2]
+    vrx, vry, vrz, li, lj, inv_ir = _relative_motion(
+        rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, wiy, wiz, mi,
+        iso_i, bvel[bj, 0], bvel[bj, 1], bvel[bj, 2], wjx, wjy, wjz, mj, biso[bj])
+    (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz,
+     h0, h1, h2, h3, h4, h5, h6) = contact(
+        normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
+        nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
+        li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, iso_i, biso[bj], dt)
+    return (fx, fy, fz,
+            aiy * fz - aiz * fy + tix, aiz * fx - aix * fz + tiy, aix * fy - aiy * fx + tiz,
+            -(ajy * fz - ajz * fy) + tjx, -(ajz * fx - ajx * fz) + tjy,
+            -(ajx * fy - ajy * fx) + tjz, h0, h1, h2, h3, h4, h5, h6)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
 def pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 biso, bmat, row_start, nbr, hist, pair_out, active, sacc,
@@ -135,19 +211,8 @@ def pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
             p = halo_slot[t] if halo else t
             j = nbr[p]
             here = j < hi   # the j side is in this chunk (halo slots always are)
-            rj = srad[j]
-            xj = spos[j, 0]
-            yj = spos[j, 1]
-            zj = spos[j, 2]
-            dx = xi - xj
-            dy = yi - yj
-            dz = zi - zj
-            rs = ri + rj
-            d2 = dx * dx + dy * dy + dz * dz
-            # apart; but a contact that held at the last step stays while the gap is
-            # within the normal sub-model's reach (0 for all but the cohesive ones)
-            if d2 >= rs * rs and not (active[p] and d2 < (rs + reach(
-                    normal, table, mati, bmat[sbody[j]], ri * rj / rs)) ** 2):
+            gap = separation(xi, yi, zi, ri, j, spos, srad)
+            if apart(gap, active[p], normal, table, mati, ri, sbody, bmat):
                 if not halo:
                     if not here:
                         reset_history(deferred, k)
@@ -156,42 +221,19 @@ def pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                         reset_history(hist, p)
                         active[p] = False
                 continue
-            bj = sbody[j]
-            mj = bmass[bj]
-            d = sqrt(d2)
-            inv_d = 1.0 / d
-            delta = rs - d
-            nx = dx * inv_d
-            ny = dy * inv_d
-            nz = dz * inv_d
-            # levers to the middle of the overlap: x_c = x_i - a n = x_j + b n
-            a = ri - 0.5 * delta
-            b = rj - 0.5 * delta
-            aix = oix - a * nx
-            aiy = oiy - a * ny
-            aiz = oiz - a * nz
-            ajx = (xj - bpos[bj, 0]) + b * nx
-            ajy = (yj - bpos[bj, 1]) + b * ny
-            ajz = (zj - bpos[bj, 2]) + b * nz
-            wjx = bomega[bj, 0]
-            wjy = bomega[bj, 1]
-            wjz = bomega[bj, 2]
-            vrx, vry, vrz, li, lj, inv_ir = _relative_motion(
-                rolling, aix, aiy, aiz, ajx, ajy, ajz, vix, viy, viz, wix, wiy, wiz, mi,
-                iso_i, bvel[bj, 0], bvel[bj, 1], bvel[bj, 2], wjx, wjy, wjz, mj, biso[bj])
             (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz,
-             h0, h1, h2, h3, h4, h5, h6) = contact(
-                normal, damping, tangential, rolling, table, mati, bmat[bj], hist, p, delta,
-                nx, ny, nz, vrx, vry, vrz, wix, wiy, wiz, wjx, wjy, wjz,
-                li, lj, ri * rj / rs, mi * mj / (mi + mj), inv_ir, iso_i, biso[bj], dt)
+             h0, h1, h2, h3, h4, h5, h6) = pair_contact(
+                normal, damping, tangential, rolling, table, dt, hist, p,
+                (ri, oix, oiy, oiz, vix, viy, viz, wix, wiy, wiz, mi, iso_i, mati), gap,
+                sbody, bpos, bvel, bomega, bmass, biso, bmat)
             # a halo row's own sums are dropped below; the code that computes them is
             # the owner's, so both evaluate the contact with the same instructions
             fsx += fx
             fsy += fy
             fsz += fz
-            tsx += aiy * fz - aiz * fy + tix
-            tsy += aiz * fx - aix * fz + tiy
-            tsz += aix * fy - aiy * fx + tiz
+            tsx += tix
+            tsy += tiy
+            tsz += tiz
             if not halo:
                 if here:
                     store_history(hist, p, h0, h1, h2, h3, h4, h5, h6)
@@ -206,9 +248,9 @@ def pair_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass,
                 sacc[j, 0] -= fx
                 sacc[j, 1] -= fy
                 sacc[j, 2] -= fz
-                sacc[j, 3] += -(ajy * fz - ajz * fy) + tjx
-                sacc[j, 4] += -(ajz * fx - ajx * fz) + tjy
-                sacc[j, 5] += -(ajx * fy - ajy * fx) + tjz
+                sacc[j, 3] += tjx
+                sacc[j, 4] += tjy
+                sacc[j, 5] += tjz
         if not halo:
             sacc[i, 0] += fsx
             sacc[i, 1] += fsy

@@ -57,6 +57,15 @@ class Ordering:
         return n_spheres >= threshold and (self.last_sort is None
                                            or step - self.last_sort >= interval)
 
+    def sort_step(self, n_spheres, step, threshold, interval) -> float:
+        """The first step count, from ``step`` on, at which :meth:`sort_due` holds (inf:
+        never, for fewer than ``threshold`` spheres)."""
+        if n_spheres < threshold:
+            return float("inf")
+        if self.last_sort is None:
+            return step
+        return max(step, self.last_sort + interval)
+
     def user_index(self):
         """``(bodies, spheres)``: the engine index of each user index, or None while the
         arrays are in user order."""

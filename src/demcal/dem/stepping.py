@@ -92,6 +92,10 @@ def advance(sim, nsteps: int) -> None:
         return
     sync_walls(sim)
     prepare(sim)
+    # a backend that can rebuild the lists itself (cuda) may do so inside ``steps`` when
+    # a rebuild here would do nothing else: no sphere out of the domain (the backend
+    # checks), no spatial sort due (from step ``host_rebuild_at`` on, set below)
+    sim._backend.domain = sim.description.domain
     dt = sim.dt
     half_skin = 0.5 * sim.skin
     done = 0
@@ -114,10 +118,14 @@ def advance(sim, nsteps: int) -> None:
         if per_step is None:
             per_step = walls.speed(store.spheres.pos, sim.skin, moves) * dt
         d = sim.description
+        sim._backend.host_rebuild_at = sim._ordering.sort_step(
+            store.spheres.n, sim.step_count, sim.sort_threshold, sim.sort_interval)
+        sim._backend.step_count = sim.step_count
         params = StepParams(dt, sim.time, sim.gravity, d.chosen, d.table, half_skin,
                             sim._wall_travel, per_step)
         k, again, sim.time, sim._wall_travel = sim._backend.steps(
             nsteps - done, params, store, walls.rows, moves)
+        sim.rebuilds += sim._backend.pop_rebuilds()
         if moves[0].any():
             walls.place(sim.time)  # the WallSet (and the bounding boxes) catch up
         sim.step_count += k

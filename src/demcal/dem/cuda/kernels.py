@@ -1,0 +1,241 @@
+"""CUDA grid drivers of one velocity-Verlet step.
+
+The physics is the CPU kernels' own source (:mod:`.compile`): the contact law
+(``contact.kernel.contact``), the slip and levers (``forces._relative_motion``), the wall
+contacts (``forces.wall_forces``), the integrator (``integrator.drift``,
+``integrator.gather_kick``) and the wall placement (``placement.place_moving``), each
+called by one thread over a range of one (``lo = i``, ``hi = i + 1``) where the CPU loop
+takes a range of many. Per step (:class:`.backend.CudaBackend`), four kinds of launch:
+
+* ``k_drift`` (one thread per body): half kick, drift, sphere positions; the largest
+  squared move since the last build, reduced per block and then by one atomic max per
+  block (a maximum is exact in any order);
+* ``k_check`` (one thread): the skin test of ``stepper._run_steps``, then the compiled
+  wall motions. Once a rebuild is due it raises ``flag[0]`` and every later kernel of
+  the batch returns at once, so the host queues many steps and reads one flag;
+* ``k_slots`` (one thread per pair slot): the contact of slot p = (i, j) with the
+  expressions of ``forces.pair_forces``; the history in place, and the force on i, i's
+  torque term and j's reaction term in ``slot_out[p]``. Each contact is evaluated once;
+* ``k_spheres`` (one thread per sphere): :func:`gather_pairs` sums sphere i's terms in
+  ``forces.pair_forces``' order (the reactions of the slots whose j side it is, by the
+  transposed half list, then its own row), then its wall contacts are added;
+* ``k_kick`` (one thread per body): the body's sums, gravity and the closing half kick.
+
+Every sum is taken by one thread in the CPU's order and no floating-point atomics enter
+a sum, so a run gives the same bits on every launch; with NVVM's FMA contraction off
+(:func:`.compile.exact_arithmetic`) they are the CPU's operations too.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+from numba import config, cuda, float64
+
+from demcal.geometry.placement import place_moving
+
+from .. import forces as _forces
+from .. import integrator as _integ
+from ..contact import kernel as _contact
+from .compile import ChosenIds, device_function
+
+#: Threads per block of every driver (numba-cuda's simulator runs each thread as a
+#: Python thread: small blocks keep its tests fast).
+BLOCK = 16 if config.ENABLE_CUDASIM else 128
+
+
+def blocks(n: int) -> int:
+    return max(1, (n + BLOCK - 1) // BLOCK)
+
+
+@cuda.jit(device=True)
+def block_max(v):
+    """The largest ``v`` of the block's threads, returned to every thread (each thread
+    of the block must call it; ``v`` not NaN). Exact in any order."""
+    sm = cuda.shared.array(BLOCK, float64)
+    t = cuda.threadIdx.x
+    sm[t] = v
+    cuda.syncthreads()
+    h = BLOCK // 2
+    while h > 0:
+        if t < h and sm[t + h] > sm[t]:
+            sm[t] = sm[t + h]
+        cuda.syncthreads()
+        h //= 2
+    out = sm[0]
+    cuda.syncthreads()   # all have read it before a next call writes the array again
+    return out
+
+
+@cuda.jit(device=True)
+def block_min(v):
+    """:func:`block_max` of the smallest."""
+    return -block_max(-v)
+
+
+@cuda.jit(device=True)
+def gather_pairs(i, row_start, act, slot_out, tstart, tslot, sacc):
+    """``forces.pair_forces``' sums for sphere i, in its order, from the slots' terms
+    (``k_slots``): the reactions of the earlier rows' slots whose j side i is (slot
+    order), then its own row's sum."""
+    fx = 0.0
+    fy = 0.0
+    fz = 0.0
+    tx = 0.0
+    ty = 0.0
+    tz = 0.0
+    for t in range(tstart[i], tstart[i + 1]):
+        p = tslot[t]
+        if act[p]:
+            fx -= slot_out[p, 0]
+            fy -= slot_out[p, 1]
+            fz -= slot_out[p, 2]
+            tx += slot_out[p, 6]
+            ty += slot_out[p, 7]
+            tz += slot_out[p, 8]
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    for p in range(row_start[i], row_start[i + 1]):
+        if act[p]:
+            sx += slot_out[p, 0]
+            sy += slot_out[p, 1]
+            sz += slot_out[p, 2]
+            ux += slot_out[p, 3]
+            uy += slot_out[p, 4]
+            uz += slot_out[p, 5]
+    sacc[i, 0] = fx + sx
+    sacc[i, 1] = fy + sy
+    sacc[i, 2] = fz + sz
+    sacc[i, 3] = tx + ux
+    sacc[i, 4] = ty + uy
+    sacc[i, 5] = tz + uz
+
+
+@functools.lru_cache(maxsize=None)
+def common_kernels():
+    """The drivers that do not depend on the contact model."""
+    drift = device_function(_integ.drift)
+    gather_kick = device_function(_integ.gather_kick)
+    place = device_function(place_moving)
+
+    @cuda.jit
+    def k_drift(flag, dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                binertia, bfixed, bstart, soffset, spos, sref, sdsq, mx):
+        b = cuda.grid(1)
+        m = 0.0
+        if flag[0] == 0 and b < bpos.shape[0]:
+            m = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                      binertia, bfixed, bstart, soffset, spos, sref, sdsq, b, b + 1)
+        # the block's largest move first, then one atomic per block (one address
+        # contended by every thread of a million-body grid would serialise the step)
+        m = block_max(m)
+        if cuda.threadIdx.x == 0 and m > 0.0:
+            cuda.atomic.max(mx, 0, m)
+
+    @cuda.jit
+    def k_check(flag, step, time, travel, half_skin, mx, tflag, tvel, tstart, tstop,
+                ref_params, ref_origin, axis, point, rate, wkind, wparams, worigin, wvel,
+                womega):
+        if cuda.grid(1) != 0 or flag[0] != 0:
+            return
+        m = mx[0]
+        mx[0] = 0.0
+        # stepper._run_steps: a rebuild when the largest move plus the walls' travel
+        # passes half the skin (NaN positions give mx = inf)
+        if not math.sqrt(m) + travel <= half_skin:
+            flag[0] = 2 if m == math.inf else 1   # 2: NaN or infinite positions
+            flag[1] = step
+            return
+        place(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params, ref_origin,
+              wkind, wparams, worigin, wvel, womega)
+
+    @cuda.jit
+    def k_kick(flag, dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+               binertia, bfixed, bstart, sacc, kick):
+        b = cuda.grid(1)
+        if flag[0] != 0 or b >= bvel.shape[0]:
+            return
+        gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                    binertia, bfixed, bstart, sacc, kick, b, b + 1)
+
+    return k_drift, k_check, k_kick
+
+
+@functools.lru_cache(maxsize=None)
+def contact_kernels(ids: tuple):
+    """The pair and wall drivers for one combination of sub-model ids (constants of
+    the compiled kernels, as :class:`~demcal.dem.contact.chosen.Chosen` makes them on
+    the CPU)."""
+    pair_contact = device_function(_forces.pair_contact)
+    separation = device_function(_forces.separation)
+    apart = device_function(_forces.apart)
+    reset_history = device_function(_contact.reset_history)
+    store_history = device_function(_contact.store_history)
+    wall_forces = device_function(_forces.wall_forces)
+    normal, damping, tangential, rolling = (int(v) for v in ids)
+
+    @cuda.jit
+    def k_slots(flag, npair, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                bmat, srow, nbr, hist, pair_out, act, slot_out):
+        # one pair slot p = (i, j), as forces.pair_forces evaluates it in row i
+        # (forces.pair_contact; its sums are gather_pairs'): the force on i, i's torque
+        # term and j's to slot_out, the new history in place
+        p = cuda.grid(1)
+        if flag[0] != 0 or p >= npair:
+            return
+        i = srow[p]
+        j = nbr[p]
+        bi = sbody[i]
+        ri = srad[i]
+        xi = spos[i, 0]
+        yi = spos[i, 1]
+        zi = spos[i, 2]
+        mati = bmat[bi]
+        gap = separation(xi, yi, zi, ri, j, spos, srad)
+        if apart(gap, act[p], normal, table, mati, ri, sbody, bmat):
+            if act[p]:
+                reset_history(hist, p)
+                act[p] = False
+            return
+        (fx, fy, fz, tix, tiy, tiz, tjx, tjy, tjz,
+         h0, h1, h2, h3, h4, h5, h6) = pair_contact(
+            normal, damping, tangential, rolling, table, dt, hist, p,
+            (ri, xi - bpos[bi, 0], yi - bpos[bi, 1], zi - bpos[bi, 2], bvel[bi, 0],
+             bvel[bi, 1], bvel[bi, 2], bomega[bi, 0], bomega[bi, 1], bomega[bi, 2], bmass[bi],
+             biso[bi], mati),
+            gap, sbody, bpos, bvel, bomega, bmass, biso, bmat)
+        store_history(hist, p, h0, h1, h2, h3, h4, h5, h6)
+        act[p] = True
+        pair_out[p, 0] = fx
+        pair_out[p, 1] = fy
+        pair_out[p, 2] = fz
+        slot_out[p, 0] = fx
+        slot_out[p, 1] = fy
+        slot_out[p, 2] = fz
+        slot_out[p, 3] = tix
+        slot_out[p, 4] = tiy
+        slot_out[p, 5] = tiz
+        slot_out[p, 6] = tjx
+        slot_out[p, 7] = tjy
+        slot_out[p, 8] = tjz
+
+    @cuda.jit
+    def k_spheres(flag, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                  bmat, row_start, act, slot_out, tstart, tslot, wall_start, wid, whist,
+                  wall_out, wactive, sacc, wkind, wparams, wvel, womega, worigin, wmat):
+        # sphere i's contact sums: its pair terms (gather_pairs), then its wall contacts
+        i = cuda.grid(1)
+        if flag[0] != 0 or i >= spos.shape[0]:
+            return
+        gather_pairs(i, row_start, act, slot_out, tstart, tslot, sacc)
+        chosen = ChosenIds(normal, damping, tangential, rolling)
+        wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
+                    bmat, wall_start, wid, whist, wall_out, wactive, sacc, wkind, wparams,
+                    wvel, womega, worigin, wmat, i, i + 1)
+
+    return k_slots, k_spheres

@@ -1,0 +1,111 @@
+"""The cuda backend (demcal.dem.cuda) in numba-cuda's simulator, against the cpu backend.
+
+The simulator runs the device kernels as Python: what it checks is the drivers (one
+thread per sphere or body, the transposed half list, the deferred history, the device
+rebuild of the lists, the rebuild flag) around the CPU kernels' own source, for every
+normal and rolling sub-model and every wall kind. The engine compiles without fast-math
+licences, so the two backends agree to the bit here; on a GPU the tolerance below
+(1e-12 relative) is what the device's transcendental functions may cost
+(benchmarks/gpu/check.py measures it there).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from demcal.errors import ConfigError
+
+HERE = Path(__file__).resolve().parent
+TOLERANCE = 1e-12
+ALL_KINDS = {"plane", "disk", "cylinder", "cone", "rect", "triangle"}
+
+
+def _has_numba_cuda() -> bool:
+    try:
+        from numba import cuda  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+needs_numba_cuda = pytest.mark.skipif(not _has_numba_cuda(),
+                                      reason="numba-cuda not installed (demcal[cuda])")
+
+
+@pytest.fixture(scope="module")
+def cases():
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    res = subprocess.run([sys.executable, str(HERE / "cuda_sim_cases.py"), "30"],
+                         capture_output=True, text=True, env=env, timeout=900)
+    assert res.returncode == 0, res.stderr[-3000:]
+    return [json.loads(line) for line in res.stdout.splitlines() if line.startswith("{")]
+
+
+@needs_numba_cuda
+def test_every_case_agrees_with_the_cpu_backend(cases):
+    assert len(cases) == 6
+    for c in cases:
+        assert c["touching_pairs"] + c["touching_walls"] > 0, c["case"]
+        for field, err in c["relative"].items():
+            assert err <= TOLERANCE, (c["case"], field, err)
+        assert c["history"] <= TOLERANCE, c["case"]
+        assert c["same_lists"] and c["same_active"], c["case"]
+        assert c["rebuilds"][0] == c["rebuilds"][1], c["case"]
+
+
+@needs_numba_cuda
+def test_the_device_rebuilds_the_lists_inside_its_step_loop(cases):
+    # the stirred box is rebuilt several times within its 30 steps, each time on the
+    # device (the lists and histories then still match the CPU's, test above)
+    assert cases[0]["rebuilds"][1] >= 3
+
+
+@needs_numba_cuda
+def test_the_cases_touch_every_wall_kind(cases):
+    assert set().union(*(c["wall_kinds_touching"] for c in cases)) == ALL_KINDS
+
+
+def test_a_missing_numba_cuda_is_one_sentence(monkeypatch):
+    from demcal.dem.cuda import backend
+    monkeypatch.setitem(sys.modules, "numba.cuda", None)
+    with pytest.raises(ConfigError, match=r"pip install 'demcal\[cuda\]'"):
+        backend.cuda_module()
+
+
+@needs_numba_cuda
+def test_no_device_is_one_sentence():
+    # a fresh process: this one may have numba.cuda in simulator mode already
+    code = ("from demcal.dem import Simulation\n"
+            "from demcal.particles.materials import Interaction, soil\n"
+            "from demcal.errors import ConfigError\n"
+            "try:\n"
+            "    Simulation([soil()], Interaction(), backend='cuda')\n"
+            "except ConfigError as e:\n"
+            "    print('ConfigError:', e)\n")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, timeout=300)
+    from numba import cuda
+    if cuda.is_available():
+        pytest.skip("this machine has a CUDA device")
+    assert "ConfigError: backend 'cuda' found no CUDA device" in res.stdout, res.stderr
+
+
+@needs_numba_cuda
+def test_the_bench_command_says_no_device_in_one_sentence():
+    from numba import cuda
+    if cuda.is_available():
+        pytest.skip("this machine has a CUDA device")
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_ENABLE_CUDASIM"}
+    res = subprocess.run([sys.executable, "-m", "demcal", "bench", "impact", "--backend", "cuda"],
+                         capture_output=True, text=True, env=env, timeout=300)
+    assert res.returncode == 2, res.stderr
+    lines = [x for x in res.stderr.splitlines() if x.strip()]
+    assert len(lines) == 1 and "backend 'cuda' found no CUDA device" in lines[0], res.stderr
+    assert "Traceback" not in res.stderr
