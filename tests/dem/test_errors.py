@@ -97,5 +97,5 @@ def test_run_needs_duration_or_steps(backend):
 
 
 def test_unknown_backend():
-    with pytest.raises(ConfigError, match="unknown backend 'cuda'"):
-        make(backend="cuda")
+    with pytest.raises(ConfigError, match=r"unknown backend 'opencl'; available: \['cpu', 'cuda'\]"):
+        make(backend="opencl")
