@@ -293,12 +293,11 @@ def test_the_executor_names_its_backend(campaign_file):
 
 
 def test_a_cuda_campaign_without_a_gpu_is_one_sentence_before_any_run(campaign_file):
-    from numba import cuda
-
     from demcal.campaign.runner import run_campaign
     from demcal.campaign.store import Store
+    from demcal.dem.cuda.backend import device_present
 
-    if cuda.is_available():
+    if device_present():
         pytest.skip("this machine has a CUDA device")
     campaign = load_campaign(campaign_file(replace={"[executor]": '[executor]\nbackend = "cuda"'}))
     with pytest.raises(ConfigError, match="backend 'cuda'"):

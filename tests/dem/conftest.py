@@ -5,23 +5,14 @@ hours over the whole engine suite: tests/dem/test_cuda_backend.py runs small cas
 there instead).
 """
 
-import os
-
 import pytest
 
 from demcal.dem.backend import BACKENDS
+from demcal.dem.cuda.backend import device_present
 
 
 def _present(name: str) -> bool:
-    if name != "cuda":
-        return True
-    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
-        return False
-    try:
-        from numba import cuda
-    except ImportError:
-        return False
-    return cuda.is_available()
+    return name != "cuda" or device_present()
 
 
 @pytest.fixture(params=[b for b in BACKENDS if _present(b)])

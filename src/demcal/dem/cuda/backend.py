@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import os
 import time as time_module
 import warnings
 
@@ -71,6 +72,16 @@ def cuda_module():
             "backend 'cuda' needs numba-cuda, which is not installed; install it with "
             "pip install 'demcal[cuda]', or use backend 'cpu'.")
     return cuda
+
+
+def device_present() -> bool:
+    """Whether numba-cuda is installed and sees a GPU (its simulator does not count)."""
+    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
+        return False
+    try:
+        return bool(cuda_module().is_available())
+    except ConfigError:
+        return False
 
 
 def transposed(start: np.ndarray, other: np.ndarray):
