@@ -1099,7 +1099,7 @@ def _nearest_in_window(condition, response: str, sign: float, ys, cfg) -> int | 
     path's end only if it misses (as after a missed crossing). (The paper-profile 14.1 %
     sliding path from box 1 read 27.81, 30.39 and 28.84 at steps 2-4, inside 30.46 ±
     3.2 and 0.07 short of its mean; the loop laid a 34-run box at step 4 whose model
-    then reached 27.19 at most, and stopped out of reach, nineteenth session.)"""
+    then reached 27.19 at most, and stopped out of reach, 27 Nov 2026.)"""
     best = _best_step(condition, response, sign, ys, cfg)
     if best is None:
         return None

@@ -123,14 +123,14 @@ class _Device:
     def download(self, store, walls=None) -> None:
         """Copy what the device changed into the host store (and wall rows); lists rebuilt
         on the device replace the store's, and the spheres' reference positions follow."""
+        parts = [(_BODY_OUT, self.b, store.bodies), (_SPHERE_OUT, self.s, store.spheres)]
         if self.lists_rebuilt:
             store.pairs = ContactList(*(self.p[k].copy_to_host() for k in ContactList._fields))
             store.walls = ContactList(*(self.q[k].copy_to_host() for k in ContactList._fields))
             self.s["ref"].copy_to_host(store.spheres.ref)
-        for names, dev, host in ((_BODY_OUT, self.b, store.bodies),
-                                 (_SPHERE_OUT, self.s, store.spheres),
-                                 (_LIST_OUT, self.p, store.pairs),
-                                 (_LIST_OUT, self.q, store.walls)):
+        else:
+            parts += [(_LIST_OUT, self.p, store.pairs), (_LIST_OUT, self.q, store.walls)]
+        for names, dev, host in parts:
             for k in names:
                 dev[k].copy_to_host(getattr(host, k))
         if walls is not None and self.w is not None:
