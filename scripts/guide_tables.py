@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""The key tables of docs/guide.md, generated from the code's own settings tables.
+"""The key tables of the guide (docs/guide.md, docs/guide-campaign.md, docs/guide-run.md),
+generated from the code's own settings tables.
 
-Each table sits in docs/guide.md between ``<!-- BEGIN keys:NAME -->`` and
+Each table sits in one of the guide's pages between ``<!-- BEGIN keys:NAME -->`` and
 ``<!-- END keys:NAME -->``:
 
 * ``campaign:TABLE``: the keys of one campaign table, in the order of
@@ -20,7 +21,7 @@ Each table sits in docs/guide.md between ``<!-- BEGIN keys:NAME -->`` and
 
 Usage::
 
-    python scripts/guide_tables.py           # rewrite the tables in docs/guide.md
+    python scripts/guide_tables.py           # rewrite the tables in the guide's pages
     python scripts/guide_tables.py --check   # exit 1 if a table is out of date
 
 ``tests/test_guide.py`` runs the check.
@@ -34,6 +35,8 @@ import sys
 from pathlib import Path
 
 GUIDE = Path(__file__).resolve().parent.parent / "docs" / "guide.md"
+#: the guide's pages, in reading order (their ``sh test`` blocks run in this order)
+GUIDES = (GUIDE, GUIDE.with_name("guide-campaign.md"), GUIDE.with_name("guide-run.md"))
 
 #: (table, key) -> description. Tables as in ``_ALLOWED``; defaults are the loader's.
 CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
@@ -43,15 +46,15 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("campaign", "description"): "free text, shown in the report.",
     ("campaign", "workdir"): "folder of the results (store, run folders, report); default "
                              "`<name>-runs`. Relative to the campaign file's folder and inside it.",
-    ("campaign", "lab"): "TOML file of lab records (one table per sample, see *The lab file*); "
-                         "relative to the campaign file's folder and inside it.",
+    ("campaign", "lab"): "TOML file of lab records (one table per sample, see docs/guide.md, "
+                         "*The lab file*); relative to the campaign file's folder and inside it.",
     ("campaign", "from_campaign"): "another campaign file (e.g. `\"repose.toml\"`) whose calibrated "
                                    "values each condition's runs keep fixed: the values `demcal "
                                    "calibrate` found there for the condition of the same name. For "
                                    "every condition that names none of its own; see *Chained "
                                    "campaigns*.",
     ("experiment", "test"): "**required**. The virtual test: `demcal bench --list` names them "
-                            "(table *The virtual tests* below).",
+                            "(the table of virtual tests in docs/guide.md, step 3).",
     ("experiment", "profile"): "the test's profile for the design runs: `tiny` (a smoke test), "
                                "`quick` (default), `paper`, or a test's own (the incline's `medium`: "
                                "the paper bed's response for a tenth of its cost). `--profile` on "
@@ -333,7 +336,7 @@ _BLOCK = re.compile(r"(<!-- BEGIN keys:(?P<name>[^ ]+) -->\n)(?P<body>.*?)(<!-- 
 
 
 def render(text: str) -> str:
-    """``text`` (the guide) with every generated block replaced by the current table;
+    """``text`` (a page of the guide) with every generated block replaced by the current table;
     a block ``file:PATH`` is that file of the repository, verbatim, as a TOML block."""
     blocks = tables()
     root = GUIDE.parent.parent
@@ -346,7 +349,7 @@ def render(text: str) -> str:
     def replace(match):
         name = match.group("name")
         if name not in blocks:
-            raise RuntimeError(f"docs/guide.md names an unknown generated table '{name}'")
+            raise RuntimeError(f"the guide names an unknown generated table '{name}'")
         return match.group(1) + blocks[name] + "\n" + match.group(4)
 
     return _BLOCK.sub(replace, text)
@@ -354,16 +357,20 @@ def render(text: str) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--check", action="store_true", help="exit 1 if docs/guide.md is out of date")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a page of the guide is out of date")
     args = parser.parse_args()
-    text = GUIDE.read_text(encoding="utf-8")
-    new = render(text)
-    if args.check:
+    stale = []
+    for page in GUIDES:
+        text = page.read_text(encoding="utf-8")
+        new = render(text)
         if new != text:
-            print("docs/guide.md: a key table is out of date; run python scripts/guide_tables.py", file=sys.stderr)
-            return 1
-        return 0
-    GUIDE.write_text(new, encoding="utf-8")
+            stale.append(page)
+            if not args.check:
+                page.write_text(new, encoding="utf-8")
+    if args.check and stale:
+        names = ", ".join(f"docs/{page.name}" for page in stale)
+        print(f"{names}: a key table is out of date; run python scripts/guide_tables.py", file=sys.stderr)
+        return 1
     return 0
 
 

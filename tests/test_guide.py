@@ -1,4 +1,5 @@
-"""docs/guide.md, "Calibrate your own material": its key tables match the code, and every
+"""docs/guide.md, "Calibrate your own material" (with docs/guide-campaign.md and
+docs/guide-run.md, its steps 4 and 5-10): its key tables match the code, and every
 command of its ``sh test`` blocks runs, in order, in a scratch copy of
 examples/own-material (the guide's own campaign and lab files and the shipped photos).
 
@@ -23,6 +24,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 GUIDE = ROOT / "docs" / "guide.md"
+#: the guide's pages in reading order
+PAGES = (GUIDE, GUIDE.with_name("guide-campaign.md"), GUIDE.with_name("guide-run.md"))
 EXAMPLE = ROOT / "examples" / "own-material"
 FENCE = re.compile(r"^```(?P<info>[^\n]*)\n(?P<body>.*?)^```\s*$", re.M | re.S)
 
@@ -45,15 +48,22 @@ def guide_commands(text: str) -> list[str]:
     return commands
 
 
+def _guide() -> str:
+    """The guide's pages as one text, in reading order."""
+    return "\n".join(page.read_text(encoding="utf-8") for page in PAGES)
+
+
 def test_guide_tables_match_the_code():
     sys.path.insert(0, str(ROOT / "scripts"))
     try:
         import guide_tables
     finally:
         sys.path.remove(str(ROOT / "scripts"))
-    text = GUIDE.read_text(encoding="utf-8")
-    assert guide_tables.render(text) == text, (
-        "docs/guide.md's key tables or example files are out of date; run python scripts/guide_tables.py")
+    for page in PAGES:
+        text = page.read_text(encoding="utf-8")
+        assert guide_tables.render(text) == text, (
+            f"docs/{page.name}'s key tables or example files are out of date; run python scripts/guide_tables.py")
+    text = _guide()
     # every generated block is found and filled (an empty block would match itself)
     blocks = list(guide_tables._BLOCK.finditer(text))
     assert len(blocks) >= 10 and all(m.group("body").strip() for m in blocks), \
@@ -62,7 +72,7 @@ def test_guide_tables_match_the_code():
 
 
 def test_guide_blocks_are_found():
-    commands = guide_commands(GUIDE.read_text(encoding="utf-8"))
+    commands = guide_commands(_guide())
     verbs = [c.split()[1] for c in commands if c.startswith("demcal ")]
     for verb in ("measure", "bench", "design", "run", "calibrate", "report", "export"):
         assert verb in verbs, f"the guide's tested blocks have no `demcal {verb}`"
@@ -76,7 +86,7 @@ def test_every_guide_command_runs(tmp_path):
     env = dict(os.environ)
     env["PATH"] = str(Path(sys.executable).parent) + os.pathsep + env.get("PATH", "")
     env.setdefault("NUMBA_CACHE_DIR", str(ROOT / ".venv" / "numba-cache"))
-    commands = guide_commands(GUIDE.read_text(encoding="utf-8"))
+    commands = guide_commands(_guide())
     assert commands
     for command in commands:
         done = subprocess.run(["bash", "-c", command], cwd=work, env=env, capture_output=True, text=True,

@@ -1,8 +1,9 @@
 """The chosen sub-models reach the compiled loops as constants of their type.
 
 ``contact/chosen.Chosen`` puts the four sub-model ids into the numba type of the drivers'
-first argument (docs/dem.md, "Compiled for the chosen combination only"): inside compiled
-code ``chosen.normal`` etc. are the ids, and each combination has a signature of its own.
+first argument (docs/dem-contact.md, "Compiled for the chosen combination only"): inside
+compiled code ``chosen.normal`` etc. are the ids, and each combination has a signature of
+its own.
 """
 
 import pickle

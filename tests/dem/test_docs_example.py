@@ -90,23 +90,26 @@ def test_engine_docs_point_at_no_missing_file(needle):
 
 
 def test_docs_backend_example_runs():
-    # docs/dem.md, "What a backend implements": a backend plugged in by name runs
-    text = DOC.read_text(encoding="utf-8").split("### What a backend implements", 1)[1]
+    # docs/dem-backends.md, "What a backend implements": a backend plugged in by name runs
+    text = DOC.with_name("dem-backends.md").read_text(encoding="utf-8")
+    text = text.split("### What a backend implements", 1)[1]
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     exec(compile(code, str(DOC), "exec"), {})
 
 
 def test_docs_sub_model_example_runs():
-    # docs/dem.md, "What a contact sub-model declares"
-    text = DOC.read_text(encoding="utf-8").split("### What a contact sub-model declares", 1)[1]
+    # docs/dem-contact.md, "What a contact sub-model declares"
+    text = DOC.with_name("dem-contact.md").read_text(encoding="utf-8")
+    text = text.split("### What a contact sub-model declares", 1)[1]
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     exec(compile(code, str(DOC), "exec"), {})
 
 
 def test_docs_bench_test_example_runs():
-    # docs/dem.md, "What a bench test implements"
+    # docs/dem-backends.md, "What a bench test implements"
     from demcal.bench import registry
-    text = DOC.read_text(encoding="utf-8").split("### What a bench test implements", 1)[1]
+    text = DOC.with_name("dem-backends.md").read_text(encoding="utf-8")
+    text = text.split("### What a bench test implements", 1)[1]
     code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
     try:
         exec(compile(code, str(DOC), "exec"), {})

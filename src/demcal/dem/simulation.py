@@ -69,7 +69,7 @@ class Simulation:
     rolling_model : {"type_a", "cdt", "type_c", "type_a_limited", "rvd", "none"}, optional
         Rolling resistance. With a preset name for ``contact_model`` the default is
         ``"type_a"`` (EDEM's standard rolling friction; a constant torque that never
-        lets a bed become perfectly static, see docs/dem.md: name ``"type_c"`` where a
+        lets a bed become perfectly static, see docs/dem-contact.md: name ``"type_c"`` where a
         static packing matters, or ``"type_a_limited"``, type A with a moment limiter). A
         :class:`ContactModel` names its own rolling model;
         a different ``rolling_model`` is refused rather than one of the two ignored.

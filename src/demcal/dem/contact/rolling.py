@@ -10,7 +10,7 @@ against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
   the contact point (the middle of the overlap) and w_i i's own angular velocity, the
   twisting component included; likewise for j (nothing on a wall). ``Fn`` is the total
   normal force (spring + damping) clipped at 0: EDEM's page does not say which normal
-  force it takes (see docs/dem.md).
+  force it takes (see docs/dem-contact.md).
 * ``cdt`` / ``relative`` (LIGGGHTS-PUBLIC 3.8.0 ``rolling_model_cdt.h``, default
   ``torsionTorque off``):
   ``tau_i = -mu_r (k_n delta) R* w_t/|w_r|``, ``tau_j = -tau_i``. Three points fix it:
@@ -39,7 +39,7 @@ against a wall for ``cdt``, the wall's own angular velocity for ``type_c``).
   ``|tau_i| <= f I_i |w_i| / dt`` with ``I_i`` the body's mean principal moment of
   inertia, i.e. ``tau_i = -min(mu_r Fn R_i / |w_i|, f I_i / dt) w_i``. A torque that
   flips with a vanishing spin every step (type A's chatter on a particle at rest,
-  docs/dem.md) becomes a viscous torque that cannot reverse the spin; a particle that
+  docs/dem-contact.md) becomes a viscous torque that cannot reverse the spin; a particle that
   rolls faster than ``mu_r Fn R_i dt / (f I_i)`` feels type A's torque unchanged.
   With ``f`` = 0.08 a particle needs more than twelve such contacts to have its spin
   reversed in one step.
