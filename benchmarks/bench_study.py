@@ -11,8 +11,8 @@ Each finished run is appended to ``RESULTS.jsonl`` as soon as it ends (its case,
 settings, responses, particles, steps and wall time), so a study that is stopped resumes
 where it was: runs already in the file are skipped. Runs go one at a time, in plan order
 with the seeds interleaved (every case gets its first seed before any gets its second), so
-a study cut short still has every case. The tables in ``docs/validation.md`` are written
-from these files by ``--summary``::
+a study cut short still has every case. The tables in ``docs/validation*.md`` and the
+studies' READMEs are written from these files by ``--summary``::
 
     python benchmarks/bench_study.py PLAN.json RESULTS.jsonl --summary
 

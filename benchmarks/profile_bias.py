@@ -32,7 +32,7 @@ ENTRIES = [
     # where the paper-profile sliding calibration verified (mu' 0.67-1.11; each condition's
     # particle values from the repose campaign, which are not candidate terms: the old
     # points lack them): the bias grows with mu' and gamma' (the deep paper bed fails
-    # inside, so what resists at the base raises the quick angle more; docs/validation.md).
+    # inside, so what resists at the base raises the quick angle more; docs/validation-incline.md).
     ("incline", "sliding_angle_deg", "quick", "paper",
      [f"{STUDY}/results-incline-and-quick.jsonl", f"{STUDY}/results-designs-device.jsonl",
       f"{BEYOND}/results-quick.jsonl", f"{BEYOND}/results-paper.jsonl",
@@ -45,7 +45,7 @@ ENTRIES = [
       f"{BEYOND}/results-paper.jsonl", f"{PROXY}/results-paper-device.jsonl",
       f"{PROXY}/results-quick-1000.jsonl"], "2026-11-27"),
     # The funnel's paper - quick difference changes sign with the rolling friction (type A:
-    # -15 deg at 0.3, +9 to +12 deg at 0.1; docs/validation.md): measure() finds the slope in
+    # -15 deg at 0.3, +9 to +12 deg at 0.1; docs/validation-repose.md): measure() finds the slope in
     # particle.rolling_friction and stores the bias as linear in it, with the points' scatter.
     ("repose-funnel", "repose_angle_deg", "quick", "paper",
      [f"{STUDY}/results-funnel-paper.jsonl", f"{STUDY}/results-incline-and-quick.jsonl",

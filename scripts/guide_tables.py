@@ -186,7 +186,7 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                          "stopped heartbeating (killed, machine lost) is taken over "
                                          "by another runner (default 120).",
     ("executor", "backend"): "where the runs simulate: `cpu` (default) or `cuda` (an NVIDIA GPU "
-                             "with numba-cuda, `pip install 'demcal[cuda]'`; docs/dem.md).",
+                             "with numba-cuda, `pip install 'demcal[cuda]'`; docs/dem-backends.md).",
     ("report", "title"): "the report's title; default the campaign's name.",
     ("report", "reference_table"): "a CSV of a published design with its responses, re-analysed "
                                    "in the report's last section; inside the campaign folder.",

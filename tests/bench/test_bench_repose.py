@@ -94,7 +94,8 @@ def test_quick_profile_seed_to_seed_spread():
     # measured 22 Nov 2026: mean 35.30, sd 2.45 deg over seeds 1-6; after the third
     # session's engine changes mean 35.62, sd 1.23; with the exact rotation of the
     # two-sphere clumps (fourth session) mean 35.09, sd 2.34; with the touching pairs
-    # last in each neighbour row (fifth session) mean 34.78, sd 1.96 (docs/validation.md);
+    # last in each neighbour row (fifth session) mean 34.78, sd 1.96; today's figure in
+    # docs/validation.md, "Seed-to-seed spread";
     # the aim is 1.5 deg, this guards against a regression well beyond that
     angles = [angle(seed=s, profile="quick") for s in range(1, 7)]
     print(f"quick repose angle over seeds 1-6: mean {np.mean(angles):.2f}, "

@@ -112,7 +112,7 @@ def test_geometry_the_particles_cannot_fit_is_refused_before_running(name, overr
 @pytest.mark.parametrize("name", ["repose-funnel", "repose-cylinder", "incline"])
 def test_the_two_sphere_centre_distance_is_a_setting(name):
     # the paper gives no centre distance; 7 mm is demcal's choice, and the sensitivity
-    # study varies it (docs/validation.md)
+    # study varies it (docs/validation-repose.md)
     import math
 
     from demcal.bench.common import template_for

@@ -112,7 +112,7 @@ def test_the_funnel_bias_is_stored_as_a_slope_in_the_rolling_friction():
 
 def test_the_cylinder_bias_is_stored_and_changes_sign_with_the_rolling_friction():
     """The lifted cylinder shares the funnel's reversal at the paper profile
-    (docs/validation.md, "The cylinder's stored bias"): paper - quick is negative at gamma
+    (docs/validation-repose.md, "The lifted cylinder"): paper - quick is negative at gamma
     0.2 and positive at gamma 0.1, five quick seeds against one paper run a point."""
     b = profiles.stored("repose-cylinder", "repose_angle_deg", "quick", "paper")
     assert b is not None and len(b.points) >= 3
@@ -150,7 +150,7 @@ def test_the_cheap_profile_still_gives_the_stored_points(test, response, cheap, 
     """A stored quick (or medium) -> paper bias holds while that profile gives what it
     gave when the bias was measured: at each stored point, the seeds it was measured with.
 
-    An engine change that only reorders sums (docs/performance.md, fifteenth session)
+    An engine change that only reorders sums (docs/validation.md, "Seed-to-seed spread")
     gives each seed a new realisation of the same flow, so the new mean is compared with
     the stored one as two independent means of n seeds: each point's difference within
     two standard errors of the difference (at least 1 deg), and the mean difference

@@ -41,7 +41,7 @@ def test_demo_runs_calibrates_and_reports(tmp_path, monkeypatch, capsys):
 
 def test_the_paper_demo_designs_the_incline_at_medium_and_the_funnel_at_quick():
     """`demcal demo --profile paper`: designs at the cheapest profile that stands in for
-    the paper one (the incline's medium: within 1 deg of it, docs/validation.md; the funnel
+    the paper one (the incline's medium: within 1 deg of it, docs/validation-incline.md; the funnel
     has no medium and designs at quick), verification at paper; other profiles are both."""
     from demcal.campaign.config import load_campaign
     from demcal.cli.demo import _with_profiles, examples_dir

@@ -1,6 +1,7 @@
 """A settled bed at rest under type A and type C rolling: how fast it still moves, by
-depth and rolling friction (the chatter hypothesis of docs/validation.md, ninth
-session). 432 spheres of 4.05-4.95 mm in a 55 mm open box, HSCM soil, 1 s, one thread:
+depth and rolling friction (the chatter hypothesis: docs/validation-repose.md, "Rolling
+models at the paper's heap size"; its history in this folder's README). 432 spheres of
+4.05-4.95 mm in a 55 mm open box, HSCM soil, 1 s, one thread:
 
     python benchmarks/studies/bench-profiles-2026-11-25/chatter.py [MODEL ...]   # default: type_a type_c
 """

@@ -2,8 +2,8 @@
 squares: atan(mu') + a constant angle, atan(k mu'), and the paper's Eq. 5 read with a
 level height H0, arcsin(sin(atan mu') + H0 / L). Prints each fit, its RMS over the 17
 runs, the residuals of the three mu' level means, and the law's value at Table 10's two
-verified mu' (EDEM: 25.64 and 30.69 deg). docs/validation.md, "The incline read as late
-as a supported choice allows".
+verified mu' (EDEM: 25.64 and 30.69 deg). docs/validation-incline.md, "The reading: late
+onsets and the height in Eq. 5".
 
     python benchmarks/studies/incline-reading-2026-11-28/table8_laws.py
 """

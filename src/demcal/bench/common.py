@@ -74,7 +74,7 @@ from demcal.geometry.motion import Motion
 
 PROFILES = ("tiny", "quick", "paper")
 #: a profile some tests add between quick and paper (the incline's: its response within
-#: 1 deg of the paper profile's at a tenth of the cost, docs/validation.md)
+#: 1 deg of the paper profile's at a tenth of the cost, docs/validation-incline.md)
 MEDIUM = "medium"
 #: the contact-model presets and rolling models the engine declares
 CONTACT_MODELS = preset_names()

@@ -45,8 +45,8 @@ The simulation
   forces on it, as the lab's container, which slides with the material (paper §3.1).
   ``incline.container_wall_friction`` gives the container's wall friction against the
   particles (0 by default), through which it carries part of the material's weight onto
-  its rim. Measured at the medium profile (docs/validation.md, "A container that slides
-  with the material"): a free container whose rim has the material's own friction
+  its rim. Measured at the medium profile (docs/validation-incline.md, "A container that
+  slides with the material"): a free container whose rim has the material's own friction
   raises the onset by 0.7-1.5 deg; a heavy one gripping the film harder than the material
   makes the response mostly its own (22.9-26.5 deg over mu' 0.4-0.6, 1.8 deg per 0.1 of
   mu' where atan mu' moves 4.6).
@@ -67,7 +67,7 @@ The simulation
   mobilised, at most ``film.static_friction`` when the whole base slides), and
   ``container_push_ratio``, the material's along-slope force on the container over its
   weight. With ``base_*`` below they tell a base that slides from a bed that fails
-  inside (docs/validation.md).
+  inside (docs/validation-incline.md).
 * **Lab link.** ``equivalent_height_mm = L sin(theta)`` with ``L = incline.arm_length``
   (300 mm): the ruler reading the lab would have taken.
 
@@ -82,7 +82,7 @@ of ``paper``: over eleven points (Table 7's box and four beyond it, mu' 0.4-1.11
 five-seed mean lies 0.46 deg above the paper profile's (RMS 0.88 deg) at about a tenth of
 the cost, where the quick bed lies 4.6 deg above (RMS 5.5 deg, up to 9.8 deg as mu' grows:
 two layers slide at their base, while six and eight fail inside first;
-docs/validation.md, "A cheap incline that gives the paper profile's response").
+docs/validation-incline.md, "Bed depth and the `medium` profile").
 """
 
 from __future__ import annotations

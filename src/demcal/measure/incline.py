@@ -10,9 +10,9 @@ A point at distance ``L`` from the spindle's axis stands ``H0 + L sin(theta)`` a
 base, where ``H0`` is its height with the plate level. Eq. 5 is therefore the plate's
 tilt only when ``H0`` is 0 (the spindle's axis level with the base it is measured
 from); otherwise ``theta = arcsin((H - H0) / L)``, and Eq. 5 reads every angle high by
-a constant in sine (``H0 / L``: 7 % of ``L`` adds 4.6 deg at 26.6 deg; docs/validation.md,
-"The incline read as late as a supported choice allows"). ``H0`` defaults to 0, the
-paper's formula.
+a constant in sine (``H0 / L``: 7 % of ``L`` adds 4.6 deg at 26.6 deg;
+docs/validation-incline.md, "The reading: late onsets and the height in Eq. 5"). ``H0``
+defaults to 0, the paper's formula.
 
 The paper runs 10 groups of 3 repeats and reports the mean +- sd
 (25.42 +- 2.6 deg and 30.46 +- 3.2 deg, Section 3.1).

@@ -3,10 +3,10 @@
 The pair and wall drivers (``dem/forces.py``) call every slot's kernel with the slot's
 sub-model id, and each kernel branches on it. Read from an array at run time, those ids
 leave LLVM a loop over one contact kernel that holds every sub-model of every slot, and
-each sub-model added to it made the Hertz path slower (``docs/performance.md``, "Where the
-15 % went": -14 to -19 % on one thread against the loop before the sub-models declared
-themselves). Given as constants, the branches of the sub-models not chosen fold away
-and the loop compiles as if it had been written for the chosen four.
+each sub-model added to it made the Hertz path slower (``docs/performance.md``, "Compiled
+for the chosen combination": -14 to -19 % on one thread against the loop before the
+sub-models declared themselves). Given as constants, the branches of the sub-models not
+chosen fold away and the loop compiles as if it had been written for the chosen four.
 
 :class:`Chosen` carries the four ids into numba as part of the *type* of the argument
 (``ChosenType(normal, damping, tangential, rolling)``): numba compiles, and caches on
