@@ -112,9 +112,35 @@ def get_experiment(name: str) -> Experiment:
         raise ConfigError(f"unknown virtual test '{name}'; choose one of: {known}.") from None
 
 
+#: Settings whose values must keep an order wherever a test has both: (lower key, upper
+#: key, whether the two may be equal). :func:`resolve_settings` checks them once every
+#: value is known, so that a run is refused before it starts, not when it measures.
+ORDERED_SETTINGS: tuple[tuple[str, str, bool], ...] = (
+    ("measure.band_low", "measure.band_high", False),  # the flank band, fractions of the heap height
+    ("particles.scale_min", "particles.scale_max", True),  # the size factors' uniform distribution
+    ("geometry.outlet_diameter", "geometry.funnel_diameter", False),  # the funnel's outlet and rim
+)
+
+
+def ordered_pairs(table: Mapping[str, Setting]) -> list[tuple[Setting, Setting, bool]]:
+    """The pairs of :data:`ORDERED_SETTINGS` that the settings ``table`` holds."""
+    return [(table[a], table[b], equal) for a, b, equal in ORDERED_SETTINGS if a in table and b in table]
+
+
+def order_problem(low: Setting, high: Setting, may_equal: bool, a: float, b: float) -> str | None:
+    """The sentence refusing ``low.key`` = ``a`` with ``high.key`` = ``b`` (a pair of
+    :func:`ordered_pairs`), or None when they keep their order."""
+    if a < b or (may_equal and a == b):
+        return None
+    relation, sign = ("at most", "<=") if may_equal else ("below", "<")
+    return (f"setting '{low.key}' = {a:g} must be {relation} '{high.key}' = {b:g}; give {low.key}"
+            f"{_allowed(low)} and {high.key}{_allowed(high)}, with {low.key} {sign} {high.key}.")
+
+
 def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None,
-                     profile: str = "quick") -> dict[str, Any]:
-    """Defaults of ``profile`` updated by ``overrides``, each key and range checked."""
+                     profile: str = "quick", ordered: bool = True) -> dict[str, Any]:
+    """Defaults of ``profile`` updated by ``overrides``, each key and range checked, and
+    (with ``ordered``, for a whole run's settings) the pairs of :data:`ORDERED_SETTINGS`."""
     if profile not in experiment.profiles:
         raise ConfigError(
             f"unknown profile '{profile}' for {experiment.name}; choose one of: "
@@ -136,6 +162,10 @@ def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None
                 f"setting '{key}' = '{value}' is not one of: {', '.join(spec.choices)}."
             )
         resolved[key] = value
+    for low, high, may_equal in ordered_pairs(table) if ordered else ():
+        problem = order_problem(low, high, may_equal, float(resolved[low.key]), float(resolved[high.key]))
+        if problem:
+            raise ConfigError(problem)
     return resolved
 
 

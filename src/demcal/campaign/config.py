@@ -306,8 +306,8 @@ class Campaign:
         from demcal.bench.registry import get_experiment, resolve_settings
 
         experiment = get_experiment(self.test)
-        for settings in [{}] + [c.settings for c in self.conditions]:
-            resolve_settings(experiment, {**self.settings, **settings}, profile)
+        for settings in [{}] + [c.settings for c in self.conditions]:  # the factors' order: at load
+            resolve_settings(experiment, {**self.settings, **settings}, profile, ordered=False)
         return dataclasses.replace(self, profile=profile)
 
     def with_production(self, production: str) -> "Campaign":
@@ -563,6 +563,7 @@ class _Loader:
         design = self.design(len(factors))
         responses = self.responses(experiment)
         conditions = self.conditions(responses, factors, experiment, table, profile, upstream)
+        self.check_order(table, settings, factors, conditions)
 
         runs = self.table(data, "runs", ())
         self.check_keys(runs, ("runs",), "runs")
@@ -728,8 +729,8 @@ class _Loader:
         lines = _key_lines(text)
         records = {}
         for key, table in data.items():
-            where = f"{path.name} line {lines.get((key,), '?')} [{key}]"
-            records[key] = LabRecord.from_dict(table, where)
+            records[key] = LabRecord.from_dict(table, f"[{key}]", file=path.name,
+                                               lines={k[1:]: n for k, n in lines.items() if k[:1] == (key,)})
         return records
 
     def experiment(self):
@@ -777,10 +778,43 @@ class _Loader:
             raise self.error(where, f"'{key}' is not a setting of {experiment.name}; {hint}")
         if _is_restitution(key) and isinstance(value, (int, float)) and not 0 < value <= 1:
             raise self.error(where, f"'{key}' = {value} is a coefficient of restitution and must lie in (0, 1]")
-        try:
-            resolve_settings(experiment, {key: value}, profile)
+        try:  # one value: the order of pairs is checked once all are known (check_order)
+            resolve_settings(experiment, {key: value}, profile, ordered=False)
         except ConfigError as exc:
             raise self.error(where, str(exc)) from None
+
+    def check_order(self, table, settings, factors, conditions) -> None:
+        """Refuse settings that break an order of :data:`demcal.bench.registry.ORDERED_SETTINGS`
+        (``measure.band_low < measure.band_high``, ...) in any run the design can make: the
+        lower key at its highest (a factor's high level, or its hard_high), the upper key at
+        its lowest, each condition's own settings over ``[experiment.settings]`` over the
+        test's defaults. The sentence names the line of the value that breaks it."""
+        from demcal.bench.registry import order_problem, ordered_pairs
+
+        pairs = ordered_pairs(table)
+        by_parameter = {f.parameter: (i, f) for i, f in enumerate(factors)}
+        groups = [((), {})] + [(("conditions", i), dict(c.settings)) for i, c in enumerate(conditions)]
+
+        def extreme(key, highest, own, own_where):
+            """(value, where written) of ``key`` at the end of its range that ``highest`` asks for."""
+            if key in by_parameter:
+                i, f = by_parameter[key]
+                level = ("hard_high" if f.hard_high is not None else "high") if highest else \
+                    ("hard_low" if f.hard_low is not None else "low")
+                return getattr(f, level), ("factors", i, level)
+            if key in own:
+                return float(own[key]), own_where + ("settings", key)
+            if key in settings:
+                return float(settings[key]), ("experiment", "settings", key)
+            return float(table[key].default), None
+
+        for own_where, own in groups:
+            for low, high, may_equal in pairs:
+                a, where_a = extreme(low.key, True, own, own_where)
+                b, where_b = extreme(high.key, False, own, own_where)
+                problem = order_problem(low, high, may_equal, a, b)
+                if problem:
+                    raise self.error(where_a or where_b or ("experiment",), problem)
 
     def factors(self, experiment, table, profile) -> tuple[Factor, ...]:
         raw = self.array_of_tables("factors")
@@ -923,6 +957,12 @@ class _Loader:
                 else:
                     mean = self.number(targets_data, key, where + ("targets",))
                     sd = None
+                response = next(r for r in responses if r.name == key)
+                if _is_angle(response) and not 0 <= mean < 90:
+                    at = (where + ("targets", key, "mean") if isinstance(value, dict) else where + ("targets", key)
+                          ) if key in data.get("targets", {}) else where + ("sample",)
+                    raise self.error(at, f"condition '{name}' has a target of {mean:g}° for '{key}', but an angle "
+                                         "target must lie in [0°, 90°); give the lab's angle in degrees")
                 targets.append(Target(response=key, mean=mean, sd=sd))
             for response in responses:
                 if response.name not in targets_data:
@@ -1051,6 +1091,15 @@ def default_workdir(name: str, path: str | Path) -> str:
     ``_`` and ``-`` kept, any other run of characters one ``-``), else the file's stem."""
     safe = re.sub(r"[^A-Za-z0-9._-]+", "-", name).strip("-.")
     return f"{safe or Path(path).stem}-runs"
+
+
+#: Units that make a response an angle (its lab targets lie in [0°, 90°)), besides a
+#: name ending in ``_deg`` (``repose_angle_deg``, ``sliding_angle_deg``).
+_DEGREES = ("°", "deg", "degree", "degrees")
+
+
+def _is_angle(response: Response) -> bool:
+    return response.name.endswith("_deg") or response.unit.strip().lower() in _DEGREES
 
 
 def _is_restitution(key: str) -> bool:

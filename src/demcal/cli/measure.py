@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 
 from demcal.cli._util import add_command, add_json
@@ -62,9 +63,15 @@ def _floats(text: str, count: int, what: str) -> list[float]:
         values = [float(v) for v in text.split(",")]
     except ValueError:
         values = []
-    if len(values) != count:
-        raise ConfigError(f"{what} must be {count} comma-separated numbers, got '{text}'.")
+    if len(values) != count or not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"{what} must be {count} comma-separated finite numbers, got '{text}'.")
     return values
+
+
+def _positive(value: float | None, option: str, unit: str) -> None:
+    """Refuse an option's value that is not a positive, finite number of ``unit``."""
+    if value is not None and not (math.isfinite(value) and value > 0):
+        raise ConfigError(f"{option} must be a positive, finite number of {unit}, got {value}.")
 
 
 def _repose(args) -> int:
@@ -74,8 +81,12 @@ def _repose(args) -> int:
 
     roi = _floats(args.roi, 4, "--roi") if args.roi else None
     band = tuple(_floats(args.band, 2, "--band"))
-    if args.mm_per_px is not None and args.mm_per_px <= 0:
-        raise ConfigError(f"--mm-per-px must be positive, got {args.mm_per_px}.")
+    if not 0 <= band[0] < band[1] <= 1:
+        raise ConfigError(f"--band must be two fractions LOW,HIGH of the heap height with 0 <= LOW < HIGH <= 1 "
+                          f"(e.g. 0.1,0.9), got '{args.band}'.")
+    _positive(args.mm_per_px, "--mm-per-px", "mm per pixel")
+    if args.base_y is not None and not (math.isfinite(args.base_y) and args.base_y >= 0):
+        raise ConfigError(f"--base-y must be a row of the photo, a number of pixels >= 0, got {args.base_y}.")
     if args.min_r2 is not None and not 0 <= args.min_r2 < 1:
         raise ConfigError(f"--min-r2 must lie in 0 .. 1 (e.g. 0.9), got {args.min_r2}.")
     workers = args.workers or _cores()
@@ -120,6 +131,11 @@ def _cores() -> int:
 def _incline(args) -> int:
     from demcal.measure.incline import measure_incline
 
+    _positive(args.L, "--L", "mm (the distance from the starting point to the spindle)")
+    if not (math.isfinite(args.H0) and args.H0 >= 0):
+        raise ConfigError(f"--H0 must be a finite number of mm >= 0 (0: the paper's Eq. 5), got {args.H0}.")
+    if args.repeats is not None and args.repeats < 1:
+        raise ConfigError(f"--repeats must be at least 1 reading per group, got {args.repeats}.")
     m = measure_incline(args.H, args.L, args.repeats, args.H0)
     if args.json:
         print(json.dumps(m.to_dict(), indent=2))

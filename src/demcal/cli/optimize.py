@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from typing import TYPE_CHECKING
 
@@ -32,7 +33,7 @@ def register(subparsers) -> None:
         factor_help="actual low/high levels of a factor, for actual-unit answers",
         reduce_help="reduce each model by backward elimination first")
     p.add_argument("--starts", type=int, default=30,
-                   help="random starting points (default: %(default)s)")
+                   help="random starting points, 1 to 10,000 (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the starting points (default: %(default)s)")
     p.add_argument("--threshold", type=float, default=0.99,
@@ -52,6 +53,8 @@ def goals_from_args(args) -> list[Goal]:
         raise ConfigError(f"{len(args.target)} --target values but only {len(plain)} --response "
                           "columns without a --goal to pair them with.")
     for r, t in zip(plain, args.target):
+        if not math.isfinite(t):
+            raise ConfigError(f"--target of {r!r} must be a finite number, got {t}.")
         goals.append(Goal(r, "target", t))
     missing = plain[len(args.target):]
     if missing:
@@ -63,10 +66,13 @@ def goals_from_args(args) -> list[Goal]:
 
 
 def run(args) -> int:
-    if not 0 < args.threshold <= 1:
-        raise ConfigError(f"--threshold must lie in (0, 1], not {args.threshold}.")
-    if args.starts < 1:
-        raise ConfigError("--starts must be at least 1.")
+    from demcal.cli.rsm import check_reduce
+    from demcal.optimize.search import check_search
+
+    check_search(args.starts, args.threshold, ("--starts", "--threshold"))
+    if args.max_solutions is not None and args.max_solutions < 1:
+        raise ConfigError(f"--max-solutions must be at least 1 (the best solution), got {args.max_solutions}.")
+    check_reduce(args.reduce)
     from demcal.optimize.search import optimize
     from demcal.rsm.fit import fit_response_surface
     from demcal.rsm.reduce import backward_elimination

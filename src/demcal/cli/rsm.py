@@ -32,19 +32,24 @@ def register(subparsers) -> None:
     add_json(p)
 
 
+def check_reduce(alpha: float | None) -> None:
+    """Refuse a ``--reduce`` significance level outside (0, 1)."""
+    if alpha is not None and not 0 < alpha < 1:
+        raise ConfigError(f"--reduce takes a significance level between 0 and 1, not {alpha}.")
+
+
 def fit_from_args(args) -> tuple[ResponseSurface, list[str]]:
     """Read, fit and (optionally) reduce as ``demcal analyze`` does; returns model and notes."""
     from demcal.rsm.fit import fit_response_surface
     from demcal.rsm.reduce import backward_elimination
     from demcal.rsm.tables import format_p, term_label
 
+    check_reduce(args.reduce)  # before the run table is read
     runs = read_runs_from_args(args, [args.response])
     model = fit_response_surface(runs.coded, runs.responses[args.response], runs.factors,
                                  args.model, args.response)
     notes = list(model.notes)
     if args.reduce is not None:
-        if not 0 < args.reduce < 1:
-            raise ConfigError(f"--reduce takes a significance level between 0 and 1, not {args.reduce}.")
         red = backward_elimination(model, args.reduce)
         model = red.model
         if red.removed:

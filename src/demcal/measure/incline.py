@@ -73,7 +73,8 @@ def sliding_angle(H_mm, L_mm: float = 300.0, H0_mm: float = 0.0) -> np.ndarray:
     Raises
     ------
     DataError
-        ``L`` not positive, ``H0`` negative, or a reading below ``H0`` or above ``H0 + L``.
+        ``L`` not positive, ``H0`` negative, or a reading below ``H0`` or at or above
+        ``H0 + L`` (a plate at 90 deg or beyond: no sliding angle).
     """
     H = np.atleast_1d(np.asarray(H_mm, dtype=float))
     if not np.isfinite(L_mm) or L_mm <= 0:
@@ -83,12 +84,14 @@ def sliding_angle(H_mm, L_mm: float = 300.0, H0_mm: float = 0.0) -> np.ndarray:
                         f"height above the base with the plate level).")
     if H.size == 0:
         raise DataError("there are no inclined-plane readings H to convert.")
-    bad = ~np.isfinite(H) | (H < H0_mm) | (H > H0_mm + L_mm)
+    with np.errstate(over="ignore", invalid="ignore"):
+        bad = ~np.isfinite(H) | (H < H0_mm) | ~(H - H0_mm < L_mm)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         span = "0 and L" if H0_mm == 0 else f"H0 and H0 + L ({H0_mm:g} and {H0_mm + L_mm:g} mm)"
         raise DataError(f"reading {i + 1}: H = {H[i]} mm is impossible with L = {L_mm} mm; "
-                        f"each H must lie between {span}.")
+                        f"each H must lie between {span}, {'L' if H0_mm == 0 else 'H0 + L'} excluded (a plate "
+                        "at 90 deg has no sliding angle).")
     return np.degrees(np.arcsin((H - H0_mm) / L_mm))
 
 

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import glob
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
@@ -209,10 +209,14 @@ class LabRecord:
     notes: str = ""
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str = "lab record") -> "LabRecord":
+    def from_dict(cls, d: Mapping[str, Any], where: str = "lab record", *, file: str | None = None,
+                  lines: Mapping[tuple, int] | None = None) -> "LabRecord":
         """Build a record from a parsed table (see the module docstring for the keys).
 
-        ``where`` prefixes error messages, e.g. ``"[lab.L]"``.
+        ``where`` prefixes error messages, e.g. ``"[lab.L]"``; with ``file`` (the lab
+        file's name) and ``lines`` (the 1-based line of each key path inside the record,
+        ``()`` for its table, ``("repose", "mean_deg")`` for a key), a sentence names the
+        file and the line of the key it is about: ``lab.toml line 21 [L] repose: ...``.
 
         Raises
         ------
@@ -220,39 +224,40 @@ class LabRecord:
             Unknown key, missing name, a value of the wrong type or out of range; the
             sentence names the key.
         """
+        at = _Place(where, file, lines or {})
         if not isinstance(d, Mapping):
-            raise ConfigError(f"{where} must be a table of keys, not {type(d).__name__}.")
+            raise ConfigError(f"{at} must be a table of keys, not {type(d).__name__}.")
         known = {"name", "moisture_percent", "moisture_sd_percent", "bulk_density", "sieve",
                  "repose", "sliding", "notes"}
-        _unknown(d, known, where)
+        _unknown(d, known, at)
         if "name" not in d or not isinstance(d["name"], str) or not d["name"].strip():
-            raise ConfigError(f"{where} needs a 'name' (the sample's name, a string).")
-        moisture = _number(d, "moisture_percent", where, 0.0, 100.0)
-        moisture_sd = _number(d, "moisture_sd_percent", where, 0.0, 100.0)
-        density = _number(d, "bulk_density", where, 0.0, None, open_low=True)
+            raise ConfigError(f"{at.key('name')} needs a 'name' (the sample's name, a string).")
+        moisture = _number(d, "moisture_percent", at, 0.0, 100.0)
+        moisture_sd = _number(d, "moisture_sd_percent", at, 0.0, 100.0)
+        density = _number(d, "bulk_density", at, 0.0, None, open_low=True)
         sieve = None
         if "sieve" in d:
             s = d["sieve"]
             if not isinstance(s, Mapping):
-                raise ConfigError(f"{where}: 'sieve' must be a table with edges_mm and mass_percent.")
-            _unknown(s, {"edges_mm", "mass_percent"}, f"{where} sieve")
+                raise ConfigError(f"{at.key('sieve')}: 'sieve' must be a table with edges_mm and mass_percent.")
+            _unknown(s, {"edges_mm", "mass_percent"}, at.sub("sieve"))
             for key in ("edges_mm", "mass_percent"):
                 if key not in s:
-                    raise ConfigError(f"{where}: 'sieve.{key}' is missing.")
+                    raise ConfigError(f"{at.key('sieve')}: 'sieve.{key}' is missing.")
             try:
-                sieve = SieveTable(_numbers(s, "edges_mm", f"{where} sieve"),
-                                   _numbers(s, "mass_percent", f"{where} sieve"))
+                sieve = SieveTable(_numbers(s, "edges_mm", at.sub("sieve")),
+                                   _numbers(s, "mass_percent", at.sub("sieve")))
             except DataError as exc:
-                raise ConfigError(f"{where}: 'sieve': {exc}") from None
+                raise ConfigError(f"{at.key('sieve')}: 'sieve': {exc}") from None
         repose = photos = None
         if "repose" in d:
-            repose, photos = _repose(d["repose"], where)
+            repose, photos = _repose(d["repose"], at)
         sliding = incline = None
         if "sliding" in d:
-            sliding, incline = _sliding(d["sliding"], where)
+            sliding, incline = _sliding(d["sliding"], at)
         notes = d.get("notes", "")
         if not isinstance(notes, str):
-            raise ConfigError(f"{where}: 'notes' must be a string.")
+            raise ConfigError(f"{at.key('notes')}: 'notes' must be a string.")
         return cls(name=d["name"].strip(), moisture_percent=moisture, moisture_sd_percent=moisture_sd,
                    bulk_density=density, sieve=sieve, repose=repose, sliding=sliding,
                    repose_photos=photos, incline=incline, notes=notes)
@@ -285,7 +290,8 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
     ------
     DataError
         No photo matches, or a photo cannot be measured: it is named, never silently
-        left out of the mean (the record's ``exclude`` leaves photos out on purpose).
+        left out of the mean (the record's ``exclude`` leaves photos out on purpose); or
+        inclined-plane readings that give no angle (the sentence names the sample).
     """
     from demcal.measure.incline import measure_incline
     from demcal.measure.photo import measure_photos
@@ -305,8 +311,11 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
     if record.sliding is not None:
         out["sliding_angle_deg"] = record.sliding
     elif record.incline is not None:
-        inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats,
-                              record.incline.H0_mm)
+        try:
+            inc = measure_incline(record.incline.H_mm, record.incline.L_mm, record.incline.repeats,
+                                  record.incline.H0_mm)
+        except DataError as exc:
+            raise DataError(f"the inclined-plane readings of sample '{record.name}': {exc}") from None
         level = f", H0 {inc.H0_mm:g} mm" if inc.H0_mm else ""
         out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, f"incline readings{level}")
     return out
@@ -360,98 +369,144 @@ def paper_records() -> dict[str, LabRecord]:
 
 # --- parsing helpers -------------------------------------------------------------------
 
-def _unknown(d: Mapping, known: set, where: str) -> None:
+@dataclass(frozen=True)
+class _Place:
+    """Where a record's (sub-)table is written, for error sentences: ``where`` (``[L]``),
+    and with the lab ``file`` and its key ``lines`` the line of the key a sentence names
+    (``lab.toml line 21 [L] repose``)."""
+
+    where: str
+    file: str | None = None
+    lines: Mapping[tuple, int] = field(default_factory=dict)
+    table: tuple[str, ...] = ()  #: the sub-table, e.g. ("repose",)
+
+    def sub(self, name: str) -> "_Place":
+        return _Place(self.where, self.file, self.lines, self.table + (name,))
+
+    def key(self, key: str | None = None) -> str:
+        """The prefix of a sentence about ``key`` of this table (None: the table)."""
+        text = " ".join((self.where,) + self.table)
+        if self.file is None:
+            return text
+        path = self.table + ((key,) if key is not None else ())
+        while path and path not in self.lines:
+            path = path[:-1]
+        line = self.lines.get(path)
+        return f"{self.file} line {line} {text}" if line is not None else f"{self.file} {text}"
+
+    def __str__(self) -> str:
+        return self.key()
+
+
+def _unknown(d: Mapping, known: set, at: _Place) -> None:
     extra = sorted(set(d) - known)
     if extra:
-        raise ConfigError(f"{where}: unknown key '{extra[0]}'; known keys are {', '.join(sorted(known))}.")
+        raise ConfigError(f"{at.key(extra[0])}: unknown key '{extra[0]}'; known keys are {', '.join(sorted(known))}.")
 
 
-def _number(d, key, where, low=None, high=None, open_low=False, required=False):
+def _number(d, key, at: _Place, low=None, high=None, open_low=False, required=False, open_high=False):
     if key not in d:
         if required:
-            raise ConfigError(f"{where}: '{key}' is missing.")
+            raise ConfigError(f"{at}: '{key}' is missing.")
         return None
     v = d[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-        raise ConfigError(f"{where}: '{key}' must be a finite number, got {v!r}.")
-    if low is not None and (v < low or (open_low and v == low)) or high is not None and v > high:
-        rng = f"{'(' if open_low else '['}{low}, {high if high is not None else 'inf'}]"
-        raise ConfigError(f"{where}: '{key}' = {v} is outside its allowed range {rng}.")
+        raise ConfigError(f"{at.key(key)}: '{key}' must be a finite number, got {v!r}.")
+    if (low is not None and (v < low or (open_low and v == low))
+            or high is not None and (v > high or (open_high and v == high))):
+        rng = (f"{'(' if open_low else '['}{low:g}, {'inf' if high is None else f'{high:g}'}"
+               f"{')' if open_high or high is None else ']'}")
+        raise ConfigError(f"{at.key(key)}: '{key}' = {v} is outside its allowed range {rng}.")
     return float(v)
 
 
-def _numbers(d, key, where) -> list[float]:
+def _numbers(d, key, at: _Place) -> list[float]:
     v = d[key]
     if isinstance(v, (str, bytes)) or not hasattr(v, "__iter__"):
-        raise ConfigError(f"{where}: '{key}' must be a list of numbers.")
+        raise ConfigError(f"{at.key(key)}: '{key}' must be a list of numbers.")
     out = []
     for item in v:
         if isinstance(item, bool) or not isinstance(item, (int, float)):
-            raise ConfigError(f"{where}: '{key}' must be a list of numbers, found {item!r}.")
+            raise ConfigError(f"{at.key(key)}: '{key}' must be a list of numbers, found {item!r}.")
         out.append(float(item))
     return out
 
 
-def _given_angle(t, key, where) -> MeasuredAngle:
-    mean = _number(t, "mean_deg", f"{where} {key}", 0.0, 90.0, required=True)
-    sd = _number(t, "sd_deg", f"{where} {key}", 0.0, 90.0)
+def _given_angle(t, at: _Place) -> MeasuredAngle:
+    """``mean_deg`` in [0, 90) deg (an angle of repose or sliding below a vertical face),
+    ``sd_deg`` in [0, 90] and ``n`` of the table at ``at``."""
+    mean = _number(t, "mean_deg", at, 0.0, 90.0, required=True, open_high=True)
+    sd = _number(t, "sd_deg", at, 0.0, 90.0)
     n = t.get("n", 0)
     if isinstance(n, bool) or not isinstance(n, int) or n < 0:
-        raise ConfigError(f"{where} {key}: 'n' must be a whole number >= 0, got {n!r}.")
+        raise ConfigError(f"{at.key('n')}: 'n' must be a whole number >= 0, got {n!r}.")
     return MeasuredAngle(mean, float("nan") if sd is None else sd, n)
 
 
-def _given_or_measured(t, where, key, source, table_text, source_text, keys):
+def _given_or_measured(t, at: _Place, key, source, table_text, source_text, keys):
     """The angle ``key`` given as ``mean_deg`` (and ``sd_deg``, ``n``), or ``None`` when
     the table holds its ``source`` data (photos, readings) instead; ``keys`` are the
     keys that data may use; ``table_text`` and ``source_text`` name it in messages."""
     if not isinstance(t, Mapping):
-        raise ConfigError(f"{where}: '{key}' must be a table (mean_deg/sd_deg/n or {table_text}).")
-    _unknown(t, {"mean_deg", "sd_deg", "n", *keys}, f"{where} {key}")
+        raise ConfigError(f"{at.key(key)}: '{key}' must be a table (mean_deg/sd_deg/n or {table_text}).")
+    here = at.sub(key)
+    _unknown(t, {"mean_deg", "sd_deg", "n", *keys}, here)
     if "mean_deg" in t:
         if source in t:
-            raise ConfigError(f"{where} {key}: give either 'mean_deg' or '{source}', not both.")
-        return _given_angle(t, key, where)
+            raise ConfigError(f"{here.key(source)}: give either 'mean_deg' or '{source}', not both.")
+        return _given_angle(t, here)
     if source not in t:
-        raise ConfigError(f"{where} {key}: give 'mean_deg' (and 'sd_deg', 'n') or {source_text}.")
+        raise ConfigError(f"{here}: give 'mean_deg' (and 'sd_deg', 'n') or {source_text}.")
     return None
 
 
-def _repose(t, where):
-    given = _given_or_measured(t, where, "repose", "photos", "photos", "'photos'",
+def _repose(t, at: _Place):
+    given = _given_or_measured(t, at, "repose", "photos", "photos", "'photos'",
                                ("photos", "mm_per_px", "roi", "base_y", "exclude"))
     if given is not None:
         return given, None
+    here = at.sub("repose")
     photos = t["photos"]
     if isinstance(photos, str):
         photos = [photos]
     if not photos or not all(isinstance(p, str) for p in photos):
-        raise ConfigError(f"{where} repose: 'photos' must be a file pattern or a list of them.")
+        raise ConfigError(f"{here.key('photos')}: 'photos' must be a file pattern or a list of them.")
     exclude = t.get("exclude", [])
     if isinstance(exclude, str):
         exclude = [exclude]
     if not isinstance(exclude, list) or not all(isinstance(p, str) for p in exclude):
-        raise ConfigError(f"{where} repose: 'exclude' must be a file pattern or a list of them "
+        raise ConfigError(f"{here.key('exclude')}: 'exclude' must be a file pattern or a list of them "
                           "(the photos to leave out).")
     roi = None
     if "roi" in t:
-        roi = _numbers(t, "roi", f"{where} repose")
+        roi = _numbers(t, "roi", here)
         if len(roi) != 4:
-            raise ConfigError(f"{where} repose: 'roi' must be [x0, y0, x1, y1] in pixels.")
+            raise ConfigError(f"{here.key('roi')}: 'roi' must be [x0, y0, x1, y1] in pixels.")
         roi = tuple(int(v) for v in roi)
-    return None, PhotoSet(tuple(photos), _number(t, "mm_per_px", f"{where} repose", 0.0, None, True),
-                          roi, _number(t, "base_y", f"{where} repose", 0.0, None), tuple(exclude))
+    return None, PhotoSet(tuple(photos), _number(t, "mm_per_px", here, 0.0, None, True),
+                          roi, _number(t, "base_y", here, 0.0, None), tuple(exclude))
 
 
-def _sliding(t, where):
-    given = _given_or_measured(t, where, "sliding", "H_mm", "H_mm/L_mm", "'H_mm' readings",
+def _sliding(t, at: _Place):
+    given = _given_or_measured(t, at, "sliding", "H_mm", "H_mm/L_mm", "'H_mm' readings",
                                ("H_mm", "L_mm", "repeats", "H0_mm"))
     if given is not None:
         return given, None
-    H = _numbers(t, "H_mm", f"{where} sliding")
-    L = _number(t, "L_mm", f"{where} sliding", 0.0, None, open_low=True)
-    H0 = _number(t, "H0_mm", f"{where} sliding", 0.0, None)
+    from demcal.measure.incline import measure_incline
+
+    here = at.sub("sliding")
+    H = _numbers(t, "H_mm", here)
+    L = _number(t, "L_mm", here, 0.0, None, open_low=True)
+    H0 = _number(t, "H0_mm", here, 0.0, None)
     repeats = t.get("repeats")
     if repeats is not None and (isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1):
-        raise ConfigError(f"{where} sliding: 'repeats' must be a whole number >= 1.")
-    return None, InclineReadings(tuple(H), 300.0 if L is None else L, repeats, 0.0 if H0 is None else H0)
+        raise ConfigError(f"{here.key('repeats')}: 'repeats' must be a whole number >= 1.")
+    readings = InclineReadings(tuple(H), 300.0 if L is None else L, repeats, 0.0 if H0 is None else H0)
+    if not H:
+        raise ConfigError(f"{here.key('H_mm')}: there are no inclined-plane readings H to convert; give the "
+                          "heights read on the ruler [mm], e.g. H_mm = [128, 131, 127].")
+    try:  # every reading a sliding angle below 90 deg, in whole groups: refused here, not when converted
+        measure_incline(readings.H_mm, readings.L_mm, readings.repeats, readings.H0_mm)
+    except DataError as exc:
+        raise ConfigError(f"{here.key('H_mm')}: {exc}") from None
+    return None, readings

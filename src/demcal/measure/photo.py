@@ -45,14 +45,16 @@ Lengths are converted with ``mm_per_px`` (the angle does not depend on it).
 
 from __future__ import annotations
 
+import math
 import os
+import re
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
 
-from demcal.errors import DataError
+from demcal.errors import ConfigError, DataError
 from demcal.measure.flank import DEFAULT_BAND, OutlineFit, fit_outline
 from demcal.measure.summary import Summary, summarize
 
@@ -71,6 +73,10 @@ UNIFORM_SPREAD = MIN_CONTRAST / 2
 #: fit with R² above 0.98 (``benchmarks/photos.py``: 0.998 and more), while the outline
 #: traced in a picture of random noise fits with about 0.4 to 0.9.
 MIN_R2 = 0.9
+#: The most pixels demcal decodes of one photo: 80 megapixels, above a lab camera's 12 to 60
+#: and below the 89 at which Pillow suspects a decompression bomb; a larger image (or a
+#: small file that declares a huge one) is refused before it is decoded.
+MAX_PHOTO_PIXELS = 80_000_000
 #: Annotated pictures of a batch are named ``<stem><FIT_SUFFIX>`` (never the photo's own
 #: name, so a picture written next to its photo cannot replace it).
 FIT_SUFFIX = "_fit.png"
@@ -157,16 +163,35 @@ def _read(path) -> np.ndarray:
     if path.stat().st_size > MAX_PHOTO_BYTES:
         raise DataError(f"photo '{path}' holds {format_bytes(path.stat().st_size)}, more than the "
                         f"{format_bytes(MAX_PHOTO_BYTES)} demcal reads for a photo; check that it is the right file.")
-    try:
-        from PIL import Image
-
-        with Image.open(path) as im:
-            if (im.format in ("PNG", "JPEG") and im.mode in ("L", "LA", "RGB", "RGBA")
-                    and getattr(im, "n_frames", 1) == 1):
-                return np.asarray(im)
-    except Exception:  # not for Pillow: skimage says what is wrong
-        pass
     import warnings
+
+    from PIL import Image
+
+    # Pillow warns from 89 megapixels on; every such image is refused below, in one sentence
+    warnings.filterwarnings("ignore", category=Image.DecompressionBombWarning)
+    try:
+        with open(path, "rb") as fh:  # the file's own trouble (permission), apart from its contents'
+            try:
+                with Image.open(fh) as im:
+                    if im.width * im.height > MAX_PHOTO_PIXELS:
+                        raise DataError(_too_large(path, im.width * im.height, f"{im.width} x {im.height} px, "))
+                    if (im.format in ("PNG", "JPEG") and im.mode in ("L", "LA", "RGB", "RGBA")
+                            and getattr(im, "n_frames", 1) == 1):
+                        return np.asarray(im)
+            except Image.DecompressionBombError as exc:  # over twice Pillow's limit: not opened at all
+                found = re.search(r"\((\d+) pixels\)", str(exc))
+                raise DataError(_too_large(path, int(found.group(1)) if found else None)) from None
+            except MemoryError:
+                raise DataError(_too_large(path, None)) from None
+            except DataError:
+                raise
+            except Exception:  # not for Pillow: skimage says what is wrong
+                pass
+    except OSError as exc:
+        reason = "permission denied" if isinstance(exc, PermissionError) else (exc.strerror or str(exc)).lower()
+        fix = ("give yourself read access (chmod u+r) or copy the photo" if isinstance(exc, PermissionError)
+               else "check the file")
+        raise DataError(f"cannot read photo '{path}': {reason}; {fix}.") from None
 
     from skimage import io
 
@@ -177,9 +202,36 @@ def _read(path) -> np.ndarray:
             # about the photo: the error below does
             warnings.filterwarnings("ignore", message=".*DICOM.*", category=DeprecationWarning)
             return io.imread(path)
+    except MemoryError:
+        raise DataError(_too_large(path, None)) from None
     except Exception as exc:  # skimage/imageio raise many kinds
         raise DataError(f"cannot read photo '{path}' as an image ({type(exc).__name__}); "
                         "use a PNG, JPEG or TIFF file.") from None
+
+
+def check_options(mm_per_px=None, band=DEFAULT_BAND, base_y=None, min_r2: float = MIN_R2) -> None:
+    """Refuse, before any photo is read, a scale ``mm_per_px`` that is not a positive
+    number [mm/px], a ``band`` that is not two fractions 0 <= low < high <= 1 of the
+    heap height, a ``base_y`` row that is not a number >= 0 [px] or a ``min_r2`` outside
+    [0, 1) (a :class:`ConfigError` naming the parameter and its range)."""
+    if mm_per_px is not None and not (math.isfinite(mm_per_px) and mm_per_px > 0):
+        raise ConfigError(f"mm_per_px must be a positive number of mm per pixel, got {mm_per_px}.")
+    low, high = (float(b) for b in band)
+    if not 0 <= low < high <= 1:
+        raise ConfigError(f"the height band ({low:g}, {high:g}) must be two fractions of the heap height with "
+                          "0 <= low < high <= 1, e.g. (0.1, 0.9).")
+    if base_y is not None and not (math.isfinite(base_y) and base_y >= 0):
+        raise ConfigError(f"base_y must be a row of the photo, a number of pixels >= 0, got {base_y}.")
+    if not 0 <= min_r2 < 1:
+        raise ConfigError(f"min_r2 must lie in [0, 1) (e.g. 0.9), got {min_r2}.")
+
+
+def _too_large(path, pixels: int | None, size: str = "") -> str:
+    """The sentence refusing photo ``path`` of ``pixels`` (``size``: its width x height;
+    None: one that did not fit in memory)."""
+    held = (f"is {size}{pixels / 1e6:,.0f} megapixels, more than the {MAX_PHOTO_PIXELS / 1e6:.0f} megapixels "
+            "demcal reads for a photo" if pixels else "is too large to decode in the memory at hand")
+    return f"photo '{path}' {held}; crop it to the heap or scale it down."
 
 
 def _common_suffix(folder: Path) -> str:
@@ -414,10 +466,13 @@ def measure_photo(photo, roi=None, base_y: float | None = None, mm_per_px: float
 
     Raises
     ------
+    ConfigError
+        ``mm_per_px``, ``band``, ``base_y`` or ``min_r2`` out of range (:func:`check_options`).
     DataError
         Unreadable file, no heap, a heap touching the photo's (or region's) border,
         flanks that cannot be fitted or fit below ``min_r2``; the sentence names the photo.
     """
+    check_options(mm_per_px, band, base_y, min_r2)
     if isinstance(photo, (str, os.PathLike)):
         name = name or str(photo)
         if png is not None and _same_file(png, photo):
@@ -772,10 +827,13 @@ def measure_photos(photos, roi=None, base_y=None, mm_per_px=None, band=DEFAULT_B
 
     Raises
     ------
+    ConfigError
+        An option out of range (:func:`check_options`), before any photo is read.
     DataError
         An annotated picture would be written over one of the photos (nothing is
         measured or written then).
     """
+    check_options(mm_per_px, band, base_y, min_r2)
     photos = [str(p) for p in photos]
     pngs = annotated_paths(photos, out_dir) if out_dir is not None else [None] * len(photos)
     jobs = []

@@ -67,6 +67,10 @@ class Goal:
         object.__setattr__(self, "kind", kind)
         if kind == "target" and self.target is None:
             raise ConfigError(f"the target goal for {self.response} needs a target value.")
+        for name in ("target", "low", "high"):
+            value = getattr(self, name)
+            if value is not None and not np.isfinite(value):
+                raise ConfigError(f"the {name} of {self.response} must be a finite number, not {value}.")
         if not 1 <= int(self.importance) <= 5:
             raise ConfigError(f"importance of {self.response} must be 1 to 5, not {self.importance}.")
         for w in (self.weight_low, self.weight_high):

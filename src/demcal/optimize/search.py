@@ -28,6 +28,13 @@ from demcal.errors import ConfigError, DataError
 from demcal.optimize.desirability import Goal, overall_desirability
 
 
+#: The most random starts :func:`optimize` takes. Each start is one local search (about
+#: 10 to 30 ms for a quadratic in four factors), so 10,000 take minutes; the solution
+#: set's ranges come from the set search that follows the starts, not from more of them,
+#: and a million would run for hours before the result says anything new.
+MAX_STARTS = 10_000
+
+
 @dataclass
 class Optimization:
     """Result of :func:`optimize`.
@@ -176,6 +183,17 @@ def _polish_target(problem: _Problem, x, bounds):
     return x
 
 
+def check_search(n_starts: int, threshold: float, names=("n_starts", "threshold")) -> None:
+    """Refuse a count of starts outside 1 .. :data:`MAX_STARTS` or a desirability
+    threshold outside (0, 1]; ``names`` are what the sentences call them (the command's
+    options)."""
+    if isinstance(n_starts, bool) or not isinstance(n_starts, (int, np.integer)) or not 1 <= n_starts <= MAX_STARTS:
+        raise ConfigError(f"{names[0]} must be a whole number from 1 to {MAX_STARTS:,} (each start is one local "
+                          f"search; more find nothing new), got {n_starts}.")
+    if not 0 < threshold <= 1:
+        raise ConfigError(f"{names[1]} must lie in (0, 1], not {threshold}.")
+
+
 def optimize(
     models: dict,
     goals: list[Goal],
@@ -195,7 +213,7 @@ def optimize(
         One per response to optimise; missing limits default to the observed range of
         the response, widened to what the model reaches if a target lies outside it.
     n_starts : int
-        Random starting points of the simplex search.
+        Random starting points of the simplex search, 1 to :data:`MAX_STARTS`.
     seed : int
         Seed of the starting points (the result is reproducible).
     threshold : float
@@ -207,9 +225,12 @@ def optimize(
 
     Raises
     ------
+    ConfigError
+        ``n_starts`` outside 1 .. :data:`MAX_STARTS`, ``threshold`` outside (0, 1].
     DataError
         A target outside what the model can reach in the box, or no setting with D > 0.
     """
+    check_search(n_starts, threshold)
     if not goals:
         raise ConfigError("give at least one goal (e.g. --target 31.07).")
     factors = None
