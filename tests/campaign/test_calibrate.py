@@ -13,6 +13,7 @@ import pytest
 
 from demcal.campaign.calibrate import calibrate, describe
 from demcal.campaign.config import parse_campaign
+from demcal.campaign.digest import campaign_hash
 from demcal.campaign.runner import run_campaign
 from demcal.campaign.store import Store
 
@@ -51,6 +52,13 @@ def test_model_recovers_the_known_surface(calibrated):
     assert coefficients["C"] == pytest.approx(6.0, abs=0.3)
     assert coefficients["B*C"] == pytest.approx(1.9, abs=0.4)
     assert model.fit.r2 > 0.98
+
+
+def test_calibration_json_carries_the_campaign_hash(calibrated):
+    """What ``demcal export`` compares with the campaign file (tests/campaign/test_outputs.py)."""
+    campaign, _ = calibrated
+    saved = json.loads((campaign.workdir / "calibration.json").read_text())
+    assert saved["campaign_hash"] == campaign_hash(campaign) and saved["production"] is None
 
 
 def test_targets_solved_and_verified_inside_the_lab_spread(calibrated):

@@ -181,7 +181,11 @@ class Calibration:
     def to_dict(self) -> dict[str, Any]:
         """calibration.json: with several designs, each condition holds its design's models;
         with per-condition settings, each condition holds its fixed settings and their sources."""
+        from demcal.campaign.digest import campaign_hash
+
         out: dict[str, Any] = {"campaign": self.campaign.name, "profile": self.campaign.profile,
+                               "production": self.campaign.calibration.production,
+                               "campaign_hash": campaign_hash(self.campaign),
                                "test": self.campaign.test, "warnings": list(self.warnings),
                                "notes": list(self.notes), "models": {},
                                "conditions": []}

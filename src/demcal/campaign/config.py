@@ -261,6 +261,7 @@ class Campaign:
     workdir: Path = Path(".")
     title: str = ""
     reference_table: Path | None = None  #: a published design table to re-analyse
+    lab_file: Path | None = None  #: ``[campaign] lab``: the lab records' file, if named
     #: ``[report] captions``: key of :data:`CAPTION_KEYS` -> the published source it reproduces
     captions: Mapping[str, str] = field(default_factory=dict)
 
@@ -553,6 +554,7 @@ class _Loader:
         upstream = self.upstream(meta, ("campaign",))
 
         self.samples = self.lab_records(meta)
+        lab_file = self.path.parent / meta["lab"] if "lab" in meta else None
         experiment, test, profile, plugins, settings = self.experiment()
         table = experiment.settings(profile)
         factors = self.factors(experiment, table, profile)
@@ -634,6 +636,7 @@ class _Loader:
             workdir=workdir,
             title=str(report.get("title", name)),
             reference_table=reference_table,
+            lab_file=lab_file,
             captions=captions,
         )
 
@@ -644,7 +647,23 @@ class _Loader:
         name = self.string(meta, "name", ("campaign",))
         written = self.string(meta, "workdir", ("campaign",), default_workdir(name, self.path))
         workdir = self.inside(self.path.parent / written, written, ("campaign", "workdir"), "workdir")
+        self.inside_workdir(workdir, written)
         return meta, name, workdir
+
+    def inside_workdir(self, workdir: Path, written: str) -> None:
+        """What the workdir holds (store, runs and each run folder, report, calibration)
+        must lie inside the campaign's folder too, links followed: a link in the workdir
+        must not lead its results out of it (unless ``allow_outside``)."""
+        if self.allow_outside or not workdir.is_dir():
+            return
+        names = ("store.sqlite", "runs", "report", "calibration.json")
+        entries = [workdir / n for n in names if (workdir / n).is_symlink() or (workdir / n).exists()]
+        runs = workdir / "runs"
+        if runs.is_dir():
+            entries += [p for p in runs.iterdir() if p.is_symlink()]
+        for entry in entries:
+            shown = f"{written.rstrip('/')}/{entry.relative_to(workdir).as_posix()}"
+            self.inside(entry, shown, ("campaign", "workdir"), "workdir entry")
 
     def upstream(self, data: Mapping, where: tuple) -> Upstream | None:
         """The campaign that ``from_campaign`` in ``data`` names: its file, name and results'

@@ -16,7 +16,6 @@ Re-running the demo resumes: finished runs are kept in ``OUT/campaigns/*-runs``.
 
 from __future__ import annotations
 
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -61,11 +60,11 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
     start = time.perf_counter()
     out = Path(out)
     folder = out / "campaigns"
-    folder.mkdir(parents=True, exist_ok=True)
     source = examples_dir()
-    for path in sorted(source.iterdir()):
-        if path.is_file() and path.suffix in (".toml", ".csv", ".md"):
-            shutil.copy2(path, folder / path.name)
+    # Every option is checked on the examples where they lie, before anything is written.
+    for name in CAMPAIGNS:
+        _with_profiles(load_campaign(source / name), profile)
+    _copy_examples(source, folder)
     # The loop's two fidelities: designs at the cheap profile, verification at the
     # production one (`--profile paper`: designs at the test's medium profile where it has
     # one, the incline's, whose response is the paper bed's within 1 deg; else at quick).
@@ -90,6 +89,25 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
                         title=f"demcal demo: the residual-film-soil calibration (profile {profile})")
     _say(f"demo finished in {(time.perf_counter() - start) / 60:.1f} min on {executor.description}.")
     return path
+
+
+def _copy_examples(source: Path, folder: Path) -> None:
+    """The example's campaign files, lab record and tables into ``folder``; a file already
+    there is kept when it is the example's, and refused when it differs (an edited campaign
+    is the user's, never replaced). A file-system error names the copy, not the example."""
+    from demcal._files import write_atomic
+
+    files = [p for p in sorted(source.iterdir()) if p.is_file() and p.suffix in (".toml", ".csv", ".md")]
+    for path in files:
+        target = folder / path.name
+        if target.exists() and (not target.is_file() or target.read_bytes() != path.read_bytes()):
+            raise ConfigError(f"{target} is not the example's {path.name} (edited?), and the demo never replaces "
+                              "a file of yours; move it away, or give the demo another --out folder.")
+    folder.mkdir(parents=True, exist_ok=True)
+    for path in files:
+        target = folder / path.name
+        if not target.exists():
+            write_atomic(target, path.read_bytes())
 
 
 def _say(text: str) -> None:

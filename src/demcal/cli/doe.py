@@ -87,7 +87,9 @@ def register(subparsers) -> None:
     p.add_argument("--steps", type=int, default=None,
                    help="steepest-ascent: number of steps, >= 1 (default: 5)")
     p.add_argument("--descent", action="store_true", help="steepest-ascent: go downhill")
-    p.add_argument("-o", "--output", help="CSV file to write (default: standard output)")
+    p.add_argument("-o", "--output", help="CSV file to write (default: standard output); an existing file "
+                                          "is replaced only when it is a design demcal wrote")
+    p.add_argument("--force", action="store_true", help="replace an existing -o file that demcal did not write")
 
 
 def _kind_name(kind: str) -> str:
@@ -194,6 +196,11 @@ def _steepest(args) -> Design:
 def run(args) -> int:
     from demcal.doe.io import write_design_csv
 
+    if args.output:  # before anything is read or computed
+        from demcal._files import check_output
+
+        check_output(args.output, "design", inputs=[args.runs_csv] if getattr(args, "runs_csv", None) else [],
+                     force=args.force)
     design = build_design(args)
     if args.output:
         write_design_csv(design, args.output, coded=args.coded)

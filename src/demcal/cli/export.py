@@ -28,7 +28,11 @@ def register(subparsers) -> None:
                         help="export this condition only (repeat for several; default: every "
                              "calibrated condition)")
     parser.add_argument("-o", "--out", dest="output", type=Path, metavar="FILE",
-                        help="write to FILE, replacing it whole (default: standard output)")
+                        help="write to FILE (default: standard output); an existing FILE is replaced whole "
+                             "only when it is a material card demcal wrote, and never when it is one of the "
+                             "campaign's inputs (its file, lab file, photos, store, runs, calibration)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an existing FILE that is not a card demcal wrote (never an input)")
     parser.add_argument("--allow-outside", action="store_true",
                         help="accept campaign paths (workdir, lab, photos, tables) outside the campaign "
                              "file's folder")
@@ -39,9 +43,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.format not in FORMAT_NAMES:
         raise ConfigError(f"unknown export format '{args.format}'; choose {or_list(FORMAT_NAMES)}.")
-    if args.output is not None and args.output.is_dir():
-        raise ConfigError(f"--out {args.output} is a folder; give a file path.")
-    text = export(args.campaign, args.format, args.condition, allow_outside=args.allow_outside)
+    text = export(args.campaign, args.format, args.condition, allow_outside=args.allow_outside,
+                  output=args.output, force=args.force)
     if args.output is None:
         print(text, end="")
     else:
@@ -55,17 +58,38 @@ def run(args: argparse.Namespace) -> int:
 
 
 def export(campaign_path: Path, format: str = "json", conditions: list[str] | None = None, *,
-           allow_outside: bool = False) -> str:
-    """The material card of the campaign file ``campaign_path`` in ``format``."""
+           allow_outside: bool = False, output: Path | None = None, force: bool = False) -> str:
+    """The material card of the campaign file ``campaign_path`` in ``format``.
+
+    ``output``, where the card will be written, is checked first
+    (:func:`demcal._files.check_output` against the campaign's inputs); a calibration
+    whose campaign hash is not the campaign file's any more is refused."""
+    from demcal._files import check_output
     from demcal.campaign.chain import read_calibration
     from demcal.campaign.config import load_campaign
+    from demcal.campaign.files import campaign_inputs
     from demcal.export import formatter
     from demcal.export.card import build_card
 
     campaign = load_campaign(campaign_path, allow_outside=allow_outside)
+    if output is not None:
+        check_output(output, "card", inputs=campaign_inputs(campaign), force=force, option="--out")
     calibration, path, digest = read_calibration(campaign)
     profile = calibration.get("profile")
     if isinstance(profile, str) and profile != campaign.profile:
         campaign = campaign.with_profile(profile)  # the profile the values were calibrated at
+    _refuse_stale(campaign, calibration, path)
     card = build_card(campaign, calibration, conditions, {"path": str(path), "sha256": digest})
     return formatter(format)(card)
+
+
+def _refuse_stale(campaign, calibration: dict, path: Path) -> None:
+    """One sentence when calibration.json was calibrated from another campaign than the
+    file says now (:func:`demcal.campaign.digest.calibrated_from`); a calibration.json
+    without a hash is left to the card's warnings."""
+    from demcal.campaign.digest import calibrated_from
+
+    if calibrated_from(campaign, calibration) is False:
+        raise ConfigError(f"{campaign.path} changed since {path} was written (factors, targets, settings or the "
+                          "values it takes from another campaign differ), so its values are not this campaign's "
+                          f"calibration; run `demcal calibrate {campaign.path}` again, then export.")

@@ -39,7 +39,9 @@ def register(subparsers) -> None:
     p.add_argument("--threshold", type=float, default=0.99,
                    help="desirability that defines the solution set (default: %(default)s)")
     p.add_argument("--max-solutions", type=int, default=None, help="print at most this many")
-    p.add_argument("--plot", help="write the solution-set plot to this PNG or SVG file")
+    p.add_argument("--plot", help="write the solution-set plot to this PNG or SVG file (an existing file is "
+                                  "replaced only when it is a figure demcal wrote)")
+    p.add_argument("--force", action="store_true", help="replace an existing --plot file that demcal did not write")
     add_json(p)
 
 
@@ -73,6 +75,10 @@ def run(args) -> int:
     if args.max_solutions is not None and args.max_solutions < 1:
         raise ConfigError(f"--max-solutions must be at least 1 (the best solution), got {args.max_solutions}.")
     check_reduce(args.reduce)
+    if args.plot:  # before anything is read or computed
+        from demcal._files import check_output
+
+        check_output(args.plot, "figure", inputs=[args.runs_csv], force=args.force, option="--plot")
     from demcal.optimize.search import optimize
     from demcal.rsm.fit import fit_response_surface
     from demcal.rsm.reduce import backward_elimination

@@ -15,7 +15,6 @@ Any CSV with a header row can be read back; the comment lines are optional.
 from __future__ import annotations
 
 import io
-import os
 import re
 from pathlib import Path
 
@@ -24,6 +23,7 @@ import pandas as pd
 
 from demcal.doe.design import Design
 from demcal.doe.factors import Factor
+from demcal._files import write_atomic
 from demcal._checks import MAX_CSV_BYTES, control_character, printable, read_limited
 from demcal.errors import DataError
 
@@ -50,13 +50,7 @@ def write_design_csv(design: Design, path, coded: bool = False) -> Path:
     for f in design.factors:
         lines.append(f"# factor {f.name}: low={f.low!r} high={f.high!r} units={f.units}")
     body = design.to_frame(coded=coded).to_csv(index=False, float_format="%.10g")
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        tmp.write_text("\n".join(lines) + "\n" + body)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise DataError(f"cannot write {path}: {exc.strerror}.") from None
-    return path
+    return write_atomic(path, "\n".join(lines) + "\n" + body)
 
 
 def comment_lines(path, text: str | None = None):

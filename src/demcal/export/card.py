@@ -39,37 +39,23 @@ Layout::
     calibration_file  path and sha256 of calibration.json
     warnings        what the reader must know (e.g. a calibration of another campaign)
 
-The campaign hash
------------------
-:func:`campaign_hash` is the SHA-256 of the canonical JSON (sorted keys, floats to 12
-significant digits) of :func:`resolved_config`: every field of the campaign that decides
-what a calibration finds -- virtual test, profile, plug-ins, the *resolved* settings of
-the test (its defaults under that profile with the campaign's overrides, so a change of
-a demcal default changes the hash too), factors and their levels, design, responses,
-seeds and replicates, model, conditions and their targets, verification -- and none of
-what only names or places things (file path, work folder, executor, report title,
-descriptions, labels, photos, lab records beyond their targets, published reference
-values). Fields added to the campaign later are included by the same rule.
+The campaign hash (:func:`demcal.campaign.digest.campaign_hash`, re-exported here) is the
+same one ``demcal calibrate`` writes into calibration.json; ``demcal export`` refuses a
+calibration whose hash differs from the campaign file's.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
 import json
 import math
-from pathlib import Path
 from typing import Any, Mapping
 
 from demcal import __version__
 from demcal.campaign.chain import SOURCE_FILE
+from demcal.campaign.digest import calibrated_from, campaign_hash, resolved_config  # noqa: F401  (the card's API)
 from demcal.errors import DataError
 
 CARD_VERSION = 1
-
-#: Campaign fields (at any depth) that name or place things and do not change a calibration.
-_NOT_HASHED = frozenset({"path", "workdir", "executor", "title", "description", "label", "photo",
-                         "reference_table", "reference", "unit", "units", "sample"})
 
 #: Settings that describe the calibrated material (the rest belong to the virtual test).
 MATERIAL_PREFIXES = ("particle.", "wall.", "film.", "contact.", "rolling.")
@@ -160,48 +146,6 @@ LIGGGHTS_ROLLING = {
                        "R*, no limiter) nor its epsd; recalibrate with rolling.model = cdt"),
     "none": (None, True, ""),
 }
-
-
-# ------------------------------------------------------------------------ campaign hash
-
-
-def resolved_config(campaign) -> dict[str, Any]:
-    """What decides a calibration of ``campaign``, as plain JSON data (see the module
-    docstring): the campaign's fields less :data:`_NOT_HASHED`, with ``settings`` the
-    test's full resolved settings at the campaign's profile."""
-    from demcal.bench.registry import get_experiment, resolve_settings
-
-    out = _plain(campaign)
-    out["settings"] = _plain(resolve_settings(get_experiment(campaign.test), campaign.settings,
-                                              campaign.profile))
-    return out
-
-
-def campaign_hash(campaign) -> str:
-    """``sha256:<hex>`` of the canonical JSON of :func:`resolved_config`."""
-    blob = json.dumps(resolved_config(campaign), sort_keys=True, separators=(",", ":"))
-    return "sha256:" + hashlib.sha256(blob.encode()).hexdigest()
-
-
-def _plain(value: Any) -> Any:
-    """``value`` as JSON data for the hash: dataclasses as dicts of their fields (less
-    :data:`_NOT_HASHED` and None), floats to 12 significant digits."""
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)
-                if f.name not in _NOT_HASHED and getattr(value, f.name) is not None}
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items() if k not in _NOT_HASHED}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, bool) or value is None or isinstance(value, (int, str)):
-        return value
-    if isinstance(value, float):
-        return float(f"{value:.12g}") if math.isfinite(value) else str(value)
-    if isinstance(value, Path):
-        return value.name
-    if hasattr(value, "tolist"):
-        return _plain(value.tolist())
-    return str(value)
 
 
 # ----------------------------------------------------------------------------- the card
@@ -480,8 +424,7 @@ def _warnings(campaign, calibration: Mapping[str, Any]) -> list[str]:
     name = calibration.get("campaign")
     if name is not None and name != campaign.name:
         out.append(f"calibration.json names campaign '{name}', the campaign file '{campaign.name}'.")
-    stored = calibration.get("campaign_hash")
-    if isinstance(stored, str) and stored.split(":")[-1] != campaign_hash(campaign).split(":")[-1]:
+    if calibrated_from(campaign, calibration) is False:
         out.append("the campaign file changed since the calibration (its hash differs); calibrate again.")
     factors = {f.parameter for f in campaign.factors}
     for raw in calibration.get("conditions", []):
