@@ -7,7 +7,8 @@ place in the transaction that records the run), the resolved configuration saved
 to them, errors caught as text -- and both executors just map :func:`execute`:
 
 * :class:`LocalExecutor`: worker processes (spawn or forkserver) of its own, one per
-  core by default, each running one task at a time; workers die with the runner. A
+  core by default, each running one task at a time; workers die with the runner and
+  leave Ctrl-C, SIGTERM and SIGHUP to it (it stops them, then hands its claims back). A
   worker that dies (killed, out of memory, a crash) costs only its own run: it is
   replaced and that run is tried once more, and a second death is the run's failure;
 * :class:`DaskExecutor`: a ``dask.distributed`` client, connected to a scheduler
@@ -19,6 +20,7 @@ to them, errors caught as text -- and both executors just map :func:`execute`:
 from __future__ import annotations
 
 import collections
+import contextlib
 import errno
 import importlib
 import multiprocessing
@@ -209,8 +211,16 @@ def _limit_threads(threads: int | None) -> None:
 
 
 def _init_local_worker(parent_pid: int, threads: int, plugins: Sequence[str]) -> None:
-    """Pool worker start-up: die with the runner, leave Ctrl-C to it, cap threads."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    """Pool worker start-up: die with the runner, leave Ctrl-C, SIGTERM and SIGHUP to it,
+    cap threads.
+
+    A terminal sends Ctrl-C and SIGHUP, and Slurm and systemd send SIGTERM, to every
+    process of the job: a worker that died of it would count as a crash of its run
+    (retried, then failed). The runner stops its workers itself when it stops, and a
+    worker whose runner is gone dies with it (``PR_SET_PDEATHSIG``).
+    """
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         import ctypes
 
@@ -593,6 +603,7 @@ class DaskExecutor:
             raise ConfigError("the dask executor needs the 'distributed' package; pip install distributed.") from None
         self.plugins = tuple(plugins)
         self._cluster = None
+        self._futures: set = set()  #: submitted, not yet handed back by :meth:`wait`
         if address:
             probe_scheduler(address)
             try:
@@ -622,8 +633,10 @@ class DaskExecutor:
         return f"Dask cluster at {self.address} ({self.workers} worker threads)"
 
     def submit(self, task: Mapping[str, Any]):
-        return self._client.submit(execute, dict(task, threads=self.threads), pure=False,
-                                   key=f"demcal-{task['name']}-{os.urandom(4).hex()}")
+        future = self._client.submit(execute, dict(task, threads=self.threads), pure=False,
+                                     key=f"demcal-{task['name']}-{os.urandom(4).hex()}")
+        self._futures.add(future)
+        return future
 
     def wait(self, handles: Sequence[Any], timeout: float) -> list[tuple[Any, dict[str, Any]]]:
         from distributed import wait
@@ -634,6 +647,7 @@ class DaskExecutor:
             return []
         finished = []
         for future in done:
+            self._futures.discard(future)
             try:
                 finished.append((future, future.result()))
             except Exception as exc:  # a worker lost with the task, a cancelled future
@@ -641,9 +655,24 @@ class DaskExecutor:
         return finished
 
     def close(self, cancel: bool = False) -> None:
-        self._client.close()
-        if self._cluster is not None:
-            self._cluster.close()
+        """Disconnect, and stop the ``LocalCluster`` if this executor started one.
+
+        ``cancel`` (the runner stops: Ctrl-C, SIGTERM, an error): on a cluster of its
+        own, closing it stops its workers; on a remote one, every task not yet finished
+        is cancelled first, so that no queued run starts after the runner handed its
+        claims back. A task already running on a remote worker cannot be stopped from
+        here: it finishes unrecorded, and the temporary folder it may leave is removed
+        by the next runner on the campaign.
+        """
+        try:
+            if cancel and self._futures and self._cluster is None:
+                with contextlib.suppress(Exception):  # a scheduler already gone cancels nothing
+                    self._client.cancel(list(self._futures), force=True)
+            self._futures.clear()
+        finally:
+            self._client.close()
+            if self._cluster is not None:
+                self._cluster.close()
 
 
 def make_executor(kind: str = "local", workers: int = 0, scheduler: str | None = None,

@@ -13,7 +13,9 @@ While it runs, a runner heartbeats its claims and, every few seconds and once mo
 before it leaves, puts back the claims of runners that died (their pid gone, or
 their heartbeat stale), so that it finishes their runs too. A run's result and its
 artifact folder are stored together; a full disk or a read-only folder stops the
-runner with one sentence, its claims handed back and no partial folder left.
+runner with one sentence, its claims handed back and no partial folder left. Ctrl-C,
+SIGTERM and SIGHUP stop it the same way: its workers stopped, every claim handed back
+and every temporary folder removed, any further signal held back until that is done.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ import pandas as pd
 
 from demcal._checks import significant
 from demcal.campaign.config import Campaign
-from demcal.campaign.store import RunRecord, RunSpec, Store, StoreError, temp_name
+from demcal.campaign.store import RunRecord, RunSpec, Store, StoreError, held_signals, temp_name
 from demcal.errors import ConfigError, DataError
 
 #: Seconds between heartbeats of a runner's claims (stale after ``heartbeat_timeout_s``).
@@ -281,7 +283,8 @@ def remove_leftovers(store: Store) -> int:
             continue
         if match["what"] == "old" and not (store.runs_dir / match["name"]).is_dir():
             continue  # the only copy of that run's artifacts: publish_dir stopped half way
-        shutil.rmtree(path, ignore_errors=True)
+        with held_signals():  # not half a folder: it would be left for the next runner
+            shutil.rmtree(path, ignore_errors=True)
         removed += not path.exists()
     return removed
 
@@ -368,6 +371,7 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
     timeout = campaign.executor.heartbeat_timeout_s
     beat_s = min(HEARTBEAT_S, timeout / 4)  # several beats before a claim may be thought stale
     in_flight: dict[Any, tuple[RunRecord, str]] = {}  #: handle -> (claim, temporary folder name)
+    folders: dict[int, str] = {}  #: run id -> temporary folder name, from its claim until it is settled
     failed = before["failed"]
     bar = _progress_bar(len(keys), before["done"] + before["failed"], desc, progress)
 
@@ -395,6 +399,7 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                     break
                 spec = specs[record.key]
                 tmp = temp_name(spec.dirname)
+                folders[record.id] = tmp  # before its worker can make it: the clean-up knows it
                 task = {
                     "test": spec.test, "profile": spec.profile, "settings": dict(spec.settings),
                     "seed": spec.seed, "plugins": list(campaign.plugins), "label": spec.label,
@@ -417,10 +422,10 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                     with contextlib.suppress(StoreError):  # on a full disk it stays claimed by this runner,
                         store.release([record.id])       # which is gone when it exits
                     shutil.rmtree(runs_dir / tmp, ignore_errors=True)
-                    del in_flight[handle]
+                    del in_flight[handle], folders[record.id]
                     continue
                 ok = _record_outcome(store, record, specs[record.key], tmp, outcome, runs_dir, engine_version)
-                del in_flight[handle]
+                del in_flight[handle], folders[record.id]
                 if not ok:
                     failed += 1
                     if progress:  # without the bar, the caller reports summary.failures
@@ -432,15 +437,21 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                 reclaim()
                 next_beat = time.monotonic() + beat_s
     except BaseException:
-        # Ctrl-C, a full disk or an error of the runner itself: hand the claims back at
-        # once so the next runner need not wait for them to go stale, and leave no
-        # half-written folder. On a full disk even that write may fail: the claims then
-        # stay with this runner, which is gone once it exits, and the next one takes them.
-        executor.close(cancel=True)
-        with contextlib.suppress(StoreError):
-            store.release([record.id for record, _ in in_flight.values()])
-        for _, tmp in in_flight.values():
-            shutil.rmtree(runs_dir / tmp, ignore_errors=True)
+        # Ctrl-C, SIGTERM, SIGHUP, a full disk or an error of the runner itself: stop the
+        # workers, hand every claim back at once so the next runner need not wait for
+        # them to go stale, and leave no half-written folder -- with further signals held
+        # back until that is done. Every claim of this runner, not only those in flight:
+        # an interrupt may come between a claim and its task. On a full disk even that
+        # write may fail: the claims then stay with this runner, which is gone once it
+        # exits, and the next one takes them back (reclaim_stale).
+        with held_signals():
+            try:
+                executor.close(cancel=True)
+            finally:
+                with contextlib.suppress(StoreError):
+                    store.release()
+                for tmp in folders.values():
+                    shutil.rmtree(runs_dir / tmp, ignore_errors=True)
         raise
     finally:
         bar.close()

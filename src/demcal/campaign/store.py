@@ -17,7 +17,11 @@ Concurrency and crashes:
   transaction, so a ``kill -9`` leaves either the old row or the new one;
 * artifacts go to ``runs/.<name>.tmp-*`` and are renamed into ``runs/<name>`` inside
   the transaction that records the run (``publish=`` of :meth:`Store.finish` and
-  :meth:`Store.fail`): a row and its folder change together or not at all.
+  :meth:`Store.fail`): a row and its folder change together or not at all;
+* Ctrl-C, SIGTERM and SIGHUP are held back (:func:`held_signals`) while a run is
+  settled and while a stopping runner hands its claims back (:meth:`Store.release`),
+  so that a signal, a second one during the clean-up of the first included, leaves
+  no row ``running`` and no temporary folder once the process has exited.
 
 Faults: an existing store must pass ``PRAGMA quick_check`` before anything touches
 it, and every SQLite or file-system error (a damaged file, a folder where the file
@@ -34,8 +38,10 @@ import json
 import math
 import os
 import shutil
+import signal
 import socket
 import sqlite3
+import threading
 import time
 import uuid
 from dataclasses import dataclass
@@ -429,8 +435,8 @@ class Store:
         """``BEGIN IMMEDIATE`` ... ``COMMIT``; rolled back on any exception, the failed
         ``COMMIT`` of a full disk included."""
         with self.guard():
-            self.db.execute("BEGIN IMMEDIATE")
-            try:
+            try:  # BEGIN inside: an interrupt just after it still rolls back
+                self.db.execute("BEGIN IMMEDIATE")
                 yield self.db
                 self.db.execute("COMMIT")
             except BaseException:
@@ -528,25 +534,51 @@ class Store:
             (error, time.time(), wall_s, engine_version, artifacts_dir, run_id, self.owner), publish)
 
     def _settle(self, sql: str, args: tuple, publish: tuple[Path, Path] | None) -> bool:
-        swap = None
+        """Write a run's row and move its folder into place, together or not at all.
+
+        Only the wait for the store's lock may be interrupted; from there to the end,
+        an undo included, Ctrl-C, SIGTERM and SIGHUP are held back (:func:`held_signals`),
+        so a signal cannot leave a row ``done`` without its folder, or the folder moved
+        and the row still ``running``.
+        """
+        swap, committed = None, False
         try:
-            with self.transaction() as db:
-                if db.execute(sql, args).rowcount != 1:
-                    return False
-                if publish is not None:
-                    swap = _Swap(*publish)
-        except OSError as exc:  # the folder could not be moved: the row was rolled back
+            with self.guard():
+                self.db.execute("BEGIN IMMEDIATE")  # may wait for another runner's write: a signal stops it here
+                with held_signals():
+                    if self.db.execute(sql, args).rowcount != 1:
+                        return False
+                    if publish is not None:
+                        swap = _Swap(*publish)
+                    self.db.execute("COMMIT")
+                    committed = True
+                    if swap is not None:
+                        swap.keep()
+        except OSError as exc:  # the folder could not be moved: the row is rolled back below
             raise store_error(exc, exc.filename or publish[1], "the run folder") from exc
-        except BaseException:
-            if swap is not None:
-                swap.undo()
-            raise
-        if swap is not None:
-            swap.keep()
+        finally:
+            if not committed:
+                with held_signals():
+                    self._roll_back()
+                    if swap is not None:
+                        swap.undo()
         return True
 
+    def _roll_back(self) -> None:
+        """End a transaction an error or an interrupt left open on this connection."""
+        if self.db is not None and self.db.in_transaction:
+            with contextlib.suppress(sqlite3.Error):
+                self.db.execute("ROLLBACK")
+
     def release(self, run_ids: Iterable[int] | None = None) -> int:
-        """Put this runner's claims (all, or ``run_ids``) back to pending."""
+        """Put this runner's claims (all, or ``run_ids``) back to pending, in one transaction.
+
+        Made for clean-up after an interrupt: a transaction the interrupt left open on
+        this connection (it never committed) is rolled back first. Call it inside
+        :func:`held_signals` so that a second signal cannot stop it half way; a runner
+        killed outright (``kill -9``) leaves its claims to :meth:`reclaim_stale`.
+        """
+        self._roll_back()
         with self.transaction() as db:
             if run_ids is None:
                 cursor = db.execute(
@@ -677,6 +709,52 @@ def temp_dir(runs_dir: Path, name: str) -> Path:
     path = runs_dir / temp_name(name)
     path.mkdir(parents=True)
     return path
+
+
+#: The signals that stop a command: Ctrl-C, ``kill`` (``timeout``, Slurm, systemd), a closed terminal.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@contextlib.contextmanager
+def held_signals() -> Iterator[None]:
+    """Hold Ctrl-C, SIGTERM and SIGHUP back while a short critical section runs.
+
+    A signal that arrives inside the block is noted instead of acted on; at its end
+    the handlers in place before are restored and each noted signal is raised again,
+    once, so the command then stops as it would have (``KeyboardInterrupt``, or the
+    signal's default action where nothing handles it). The runner's clean-up and the
+    store's commit of a run use it: a second signal during the clean-up of the first
+    cannot stop the hand-back of a claim half way and leave its row ``running`` or
+    its temporary folder behind. Only the main thread may change handlers (elsewhere
+    the block runs unguarded); an ignored signal (``nohup``) or one handled outside
+    Python is left alone. Blocks nest.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted: list[int] = []
+    previous: dict[int, Any] = {}
+    try:
+        for signum in STOP_SIGNALS:
+            handler = signal.getsignal(signum)
+            if handler is None or handler == signal.SIG_IGN:
+                continue
+            previous[signum] = handler
+            signal.signal(signum, lambda number, _frame: noted.append(number))
+        yield
+    finally:
+        stop = None
+        for signum, handler in previous.items():
+            while True:  # a signal arriving between two restores: restore the others before it acts
+                try:
+                    signal.signal(signum, handler)
+                    break
+                except BaseException as exc:  # noqa: BLE001 - raised once every handler is back
+                    stop = stop or exc
+        for signum in dict.fromkeys(noted):
+            signal.raise_signal(signum)
+        if stop is not None:
+            raise stop
 
 
 def temp_name(name: str) -> str:

@@ -16,7 +16,9 @@ import argparse
 import errno
 import importlib
 import os
+import signal
 import sys
+import threading
 from pathlib import Path
 
 from demcal import __version__
@@ -52,13 +54,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The last line after the help when no command is given.
+NO_COMMAND = "give a command, e.g. demcal demo or demcal run CAMPAIGN.toml; see demcal --help."
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 1
+    """Run one ``demcal`` command; return its exit status.
+
+    0 done; 2 a user's mistake (one sentence: a bad file, option or value, no command
+    at all); 70 a bug in demcal. Ctrl-C, SIGTERM (``kill``, ``timeout``, systemd, Slurm
+    at a job's time limit or ``scancel``) and SIGHUP (a closed terminal) stop every
+    command alike: the signal raises ``KeyboardInterrupt`` wherever the command is, its
+    clean-up runs (a runner stops its workers, hands its claims back and removes its
+    temporary folders, holding back any further signal until that is done), and one
+    sentence says that finished results are kept. The exit status is then 128 + the
+    signal's number, the shell's code for a process that signal stopped: 130 for Ctrl-C,
+    143 for SIGTERM, 129 for SIGHUP. A job script can thus tell a time-out or a
+    cancelled job (143) from a user's Ctrl-C (130), and ``timeout --preserve-status``
+    or a batch system reports what it reports for any program that SIGTERM stopped. A
+    signal that was ignored when demcal started (``nohup`` ignores SIGHUP) stays ignored.
+    """
+    replaced = _catch_stop_signals()
     try:
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help(sys.stderr)
+            print(f"demcal: error: {NO_COMMAND}", file=sys.stderr)
+            return 2
         _check_out_folder(getattr(args, "out", None))
         _check_seed_and_workers(args)
         return int(args.func(args) or 0)
@@ -73,13 +96,46 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"demcal: error: {os_error_sentence(exc)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("demcal: interrupted; finished results are kept.", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        signum = getattr(exc, "signum", signal.SIGINT)
+        how = "" if signum == signal.SIGINT else f" ({signal.Signals(signum).name})"
+        print(f"demcal: interrupted{how}; finished results are kept.", file=sys.stderr)
+        return 128 + signum
     except Exception as exc:  # a bug in demcal, not the user's input
         if os.environ.get("DEMCAL_DEBUG"):
             raise
         return _internal_error(exc)
+    finally:
+        for signum, handler in replaced.items():
+            signal.signal(signum, handler)
+
+
+class SignalInterrupt(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where Ctrl-C raises ``KeyboardInterrupt``: every
+    clean-up that catches an interrupt catches these too."""
+
+    def __init__(self, signum: int):
+        super().__init__(signal.Signals(signum).name)
+        self.signum = int(signum)
+
+
+def _raise_interrupt(signum: int, _frame) -> None:
+    raise SignalInterrupt(signum)
+
+
+def _catch_stop_signals() -> dict[int, object]:
+    """Make SIGTERM and SIGHUP stop a command as Ctrl-C does; return the handlers replaced.
+
+    Only from the main thread, and only signals left at their default action: one that
+    is ignored (``nohup``) or that a host program handles stays as it is.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    replaced = {}
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(signum) == signal.SIG_DFL:
+            replaced[signum] = signal.signal(signum, _raise_interrupt)
+    return replaced
 
 
 #: Exit status of a command that stopped on a bug in demcal (BSD's EX_SOFTWARE).
