@@ -299,7 +299,7 @@ def test_a_stored_study_of_the_production_noise_sizes_the_first_point(tmp_path, 
     import dataclasses
 
     from demcal.bench import profiles
-    from demcal.campaign.loop import stored_noise
+    from demcal.campaign.noise import stored_noise
 
     # ten points of three seeds, sd 0.3 each: 0.3 over 20 df, at settings the campaign never runs
     stand_in = [({"particle.static_friction": 5.0 + i}, 3, 0.3) for i in range(10)]
@@ -475,7 +475,7 @@ def test_a_crossing_after_a_failed_path_step_lays_the_box(tmp_path):
     the crossing is not bracketed by two readings, so nothing is verified on the path and
     the box is laid around it, as the classic method does (this crashed for a day in the
     nineteenth session, when the nearest-step rule was added)."""
-    from demcal.campaign.loop import PATH_SEED
+    from demcal.campaign.seeds import PATH_SEED
 
     seed = 11 + PATH_SEED + 10 * 2  # [runs] seed + the path's offset + step 2 of box 0
     campaign, cal = calibrated(tmp_path, outside=40.5, fail_seed=seed)
@@ -493,7 +493,7 @@ def test_the_stored_noise_leaves_out_the_points_the_campaign_ran_and_can_be_swit
     (its runs may be those very runs); `stored_noise = false` uses none."""
     import dataclasses
 
-    from demcal.campaign.loop import production_noise, stored_noise
+    from demcal.campaign.noise import production_noise, stored_noise
     from demcal.campaign.store import RunRecord
 
     path = write(tmp_path)

@@ -219,7 +219,7 @@ class CalibrationConfig:
     #: without crossing, and lay the moved box's design only if that point misses
     verify_on_path: bool = True
     #: pool the stored profile studies' replicated production runs into the production
-    #: noise from the start (:func:`demcal.campaign.loop.stored_noise`)
+    #: noise from the start (:func:`demcal.campaign.noise.stored_noise`)
     stored_noise: bool = True
     budget_runs: int | None = None  #: most runs the calibration uses (its design included)
     budget_cpu_hours: float | None = None  #: most run hours (sum of the runs' wall times)
@@ -708,7 +708,7 @@ class _Loader:
         """How far above ``[runs] seed`` the seeds of a campaign's runs reach: design runs
         (``seed + replicate * points + point``, :func:`demcal.campaign.runner.plan_design`)
         and the calibration loop's moved boxes and path runs (:mod:`demcal.campaign.loop`)."""
-        from demcal.campaign.loop import BOX_SEED, PATH_SEED
+        from demcal.campaign.seeds import BOX_SEED, PATH_SEED
 
         design = self.design_runs * max(replicates, calibration.box_replicates or 0)
         boxes = calibration.box_moves * len(conditions)

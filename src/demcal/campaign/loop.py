@@ -67,7 +67,6 @@ without running anything.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
@@ -77,12 +76,12 @@ import pandas as pd
 
 from demcal._checks import significant
 from demcal.campaign.config import Campaign, Condition
+# pooled_sd: demcal.report.benchmark imports it from here
+from demcal.campaign.noise import pooled_sd, production_noise, stored_noise  # noqa: F401
+from demcal.campaign.seeds import BOX_SEED, PATH_SEED
+from demcal.campaign.solve import fit_models, round_parameter, solve_condition
 from demcal.campaign.store import RunRecord, RunSpec
 
-#: Seeds of runs the loop adds: path points and moved boxes' designs (plus the
-#: campaign's ``[runs] seed``); production runs use ``[verification] seed``.
-PATH_SEED = 20_000
-BOX_SEED = 50_000
 #: A point counts as inside a box up to this far beyond its coded edge.
 INSIDE_TOL = 1e-6
 #: the words every "the limits stop the path" reason of :func:`_move` carries (the loop
@@ -137,7 +136,6 @@ class Box:
 def _parameters(campaign: Campaign, box: Box, coded, limits: np.ndarray) -> dict[str, float]:
     """The campaign's factor settings at a point in ``box``'s coded units, held inside the
     physical limits and rounded as the store keys them."""
-    from demcal.campaign.calibrate import _round as round_parameter
 
     actual = _clean(box.to_actual(coded), limits)
     return {f.parameter: round_parameter(v) for f, v in zip(campaign.factors, actual)}
@@ -171,7 +169,6 @@ def physical_limits(campaign: Campaign, profile: str) -> np.ndarray:
 
 def fit_box(campaign: Campaign, box: Box, records: Sequence[RunRecord], cheap: str, design_table=None):
     """Full and reduced models of the cheap runs inside ``box`` (box 0: its design only)."""
-    from demcal.campaign.calibrate import fit_models
 
     boxed = box.campaign(campaign)
     if box.index == 0 and design_table is not None:
@@ -202,18 +199,6 @@ def campaign_runs(campaign: Campaign, records: Sequence[RunRecord], profile: str
         if {k: v for k, v in r.settings.items() if k not in params} != fixed:
             continue
         yield r
-
-
-def pooled_sd(groups) -> tuple[float, int]:
-    """The within-group standard deviation pooled over ``groups`` (sequences of values;
-    groups of one add nothing) and its degrees of freedom: the pure error of the ANOVA."""
-    ss, df = 0.0, 0
-    for values in groups:
-        v = np.asarray(values, dtype=float)
-        if len(v) > 1:
-            ss += float(((v - v.mean()) ** 2).sum())
-            df += len(v) - 1
-    return (math.sqrt(ss / df) if df else float("nan")), df
 
 
 def _point(campaign: Campaign, record: RunRecord) -> np.ndarray:
@@ -527,8 +512,6 @@ def run_condition(campaign: Campaign, condition: Condition, ci: int, *, cheap: s
                   design_table: pd.DataFrame, run: Runner, records: Callable[[], list[RunRecord]],
                   residuals: dict[str, list] | None = None, seed: int = 0) -> LoopResult:
     """The loop for one condition (module docstring)."""
-    from demcal.campaign.calibrate import _round as round_parameter
-    from demcal.campaign.calibrate import solve_condition
     from demcal.optimize import reachable_range
 
     cfg = campaign.calibration
@@ -891,71 +874,6 @@ def _spend(specs, desc, what, campaign, run, records, budget):
 def _missing(specs, records) -> int:
     done = {r.key for r in records if r.status in ("done", "failed")}
     return len({s.key for s in specs} - done)
-
-
-def production_noise(campaign: Campaign, records: Sequence[RunRecord], production: str,
-                     responses, prior: dict[str, list] | None = None) -> dict[str, tuple[float, int, int]]:
-    """Per response: the seed-to-seed sd of the production runs the loop has seen,
-    pooled over their points, its df, and how many of those df are the campaign's own;
-    with ``prior`` (response -> the stored studies' ``(settings, n, sd)`` points of the
-    production profile: :func:`stored_noise`) pooled in as further points, each point
-    the campaign has run itself left out (its own runs there count instead: a stored
-    point may be the very runs of an earlier calibration at the same settings and seeds).
-
-    Every condition's points count, not only this condition's: the noise is the
-    production bench's scatter at nearby material values, which a condition's fixed
-    settings (another condition's calibrated values, ``from_campaign``) change no more
-    than its own factors do; the discrepancy is shared between conditions the same way.
-    A point is its whole settings (factors and fixed settings). Pooling assumes the
-    scatter is alike at every point; the paper-profile incline's stored points range
-    from 0.1 to 1.5 deg with three seeds each, the larger at high film friction, which a
-    test of equal variances with 2 df a point does not tell apart from chance."""
-    groups: dict[tuple, list[RunRecord]] = {}
-    for r in records:
-        if r.status == "done" and r.kind == "verification" and r.test == campaign.test and r.profile == production:
-            groups.setdefault(json.dumps(r.settings, sort_keys=True), []).append(r)
-    own_settings = [rows[0].settings for rows in groups.values()]
-    out = {}
-    for name in responses:
-        sd, df = pooled_sd([r.responses[name] for r in rows if name in r.responses] for rows in groups.values())
-        own = df
-        ss = sd * sd * df if df else 0.0
-        for settings, n, p_sd in (prior or {}).get(name, []):
-            if not any(_same_point(settings, mine) for mine in own_settings):
-                ss, df = ss + (n - 1) * p_sd * p_sd, df + n - 1
-        out[name] = ((math.sqrt(ss / df) if df else float("nan")), df, own)
-    return out
-
-
-def _same_point(stored: dict, settings: dict) -> bool:
-    """Whether a run's ``settings`` are the stored point's (which names the material
-    values it varied; the rest were the profile's defaults)."""
-    try:
-        return all(abs(float(settings[k]) - float(v)) < 1e-9 for k, v in stored.items())
-    except (KeyError, TypeError, ValueError):
-        return False
-
-
-def stored_noise(campaign: Campaign, production: str, responses) -> dict[str, list]:
-    """Response -> the stored profile studies' replicated points of the production
-    profile, ``(settings, n, sd)`` each (:func:`demcal.bench.profiles.noise_points`),
-    where they apply to the campaign's fixed settings (the same rule as a stored bias:
-    material values only) and ``[calibration] stored_noise`` is on. With them the first
-    production point is sized by a noise already measured on the same bench instead of
-    the ``[calibration] replicates`` asked for at an unknown noise, and its 95 % interval
-    uses those degrees of freedom too: on the paper-profile incline (0.74 deg over
-    22 df, against lab sds of 2.6-3.2 deg) one run decides a point. The campaign's own
-    production runs join the pool as they come (:func:`production_noise`)."""
-    from demcal.bench import profiles
-
-    if not campaign.calibration.stored_noise or profiles.applies(campaign.settings):
-        return {}
-    out = {}
-    for name in responses:
-        points = profiles.noise_points(campaign.test, name, production)
-        if points:
-            out[name] = points
-    return out
 
 
 def _show(params: dict[str, float]) -> str:
