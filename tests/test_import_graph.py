@@ -45,13 +45,7 @@ DEFERRED_PACKAGE_CYCLES: list[set[str]] = []
 #: -> loop) is gone since the loop's seeds, its noise and the solve step moved into
 #: ``campaign.seeds``, ``campaign.noise`` and ``campaign.solve`` (issue 39 item 2).
 #: Remove an entry when its cycle is gone; never add one.
-DEFERRED_MODULE_CYCLES: list[set[str]] = [
-    # The CUDA backend imports ``lists`` at its first on-device rebuild because ``lists``
-    # imports numba.cuda at module level, which ``backend`` must not (it loads, and says
-    # how to install numba-cuda, without it); ``lists`` reads back only the constant
-    # ``SLOT_OUT_WIDTH``. Gone when that constant moves down (e.g. into ``kernels``).
-    {"demcal.dem.cuda.backend", "demcal.dem.cuda.lists"},
-]
+DEFERRED_MODULE_CYCLES: list[set[str]] = []
 
 #: The only modules outside ``demcal.cli`` that may import it: the entry points.
 CLI_ENTRY_POINTS = {"demcal.__main__"}

@@ -221,3 +221,11 @@ def test_export_refuses_a_calibration_of_another_campaign(calibrated_example, ca
         assert Path("card.json").read_bytes() == card
         edited.write_text(text)
     assert main(["export", "repose.toml", "-o", "card.json"]) == 0
+
+
+def test_measure_without_what_is_one_sentence(capsys):
+    status = main(["measure"])
+    err = capsys.readouterr().err
+    assert status == 2 and err.strip().splitlines()[-1] == (
+        "demcal: error: say what to measure: demcal measure repose PHOTO... or demcal measure incline --H ...; "
+        "see demcal measure --help.")

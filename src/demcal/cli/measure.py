@@ -10,9 +10,16 @@ from demcal.cli._util import add_command, add_json
 from demcal.errors import ConfigError, DataError
 
 
+def _no_what(parser) -> int:
+    """``demcal measure`` alone: the help on stderr and one sentence (exit status 2)."""
+    parser.print_help(sys.stderr)
+    raise ConfigError("say what to measure: demcal measure repose PHOTO... or demcal measure incline --H ...; "
+                      "see demcal measure --help.")
+
+
 def register(subparsers) -> None:
     measure = add_command(
-        subparsers, "measure", lambda args: (measure.print_help(), 1)[1],
+        subparsers, "measure", lambda args: _no_what(measure),
         help="angle of repose from heap photos; sliding angle from incline readings",
         description="Lab measurements: angle of repose from heap photos, sliding angle from "
                     "inclined-plane readings.")

@@ -24,7 +24,6 @@ a temporary name and renamed, so a reader never sees half a file.
 from __future__ import annotations
 
 import base64
-import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Mapping
@@ -110,11 +109,9 @@ def _data_array(name: str, values, encoding: str, components: int | None = None)
 def _atomic_write(path: Path, text: str) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w", encoding="ascii") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
-    return path
+    from demcal._files import write_atomic
+
+    return write_atomic(path, text.encode("ascii"))
 
 
 def _polydata(points, verts=None, polys=None, point_data=None, cell_data=None, time=None, encoding="binary") -> str:

@@ -712,16 +712,9 @@ class PhotoBatch:
         """Write the rows as CSV (empty cells for failed photos' NaN angles), atomically:
         to a temporary file in the same folder, then renamed over ``path``, so an
         interrupted write leaves the previous table (or none), never a truncated one."""
-        import uuid
+        from demcal._files import write_atomic
 
-        path = Path(path)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-        try:
-            self.table.to_csv(tmp, index=False)
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+        write_atomic(path, self.table.to_csv(index=False))
 
     def to_dict(self) -> dict:
         records = self.records()

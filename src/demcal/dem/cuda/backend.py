@@ -40,15 +40,13 @@ from demcal.errors import ConfigError
 from .. import _cache
 from ..storage import ContactList
 from ..threads import Workers
+from .layout import SLOT_OUT_WIDTH
 
 #: The arrays the device changes (copied back after each call), by container.
 _BODY_OUT = ("pos", "vel", "quat", "angmom", "omega", "force", "torque")
 _SPHERE_OUT = ("pos", "dsq", "acc")
 _LIST_OUT = ("hist", "out", "act")
 _WALL_OUT = ("params", "origin", "velocity", "omega")
-#: Columns of a pair slot's terms for the gather (:mod:`.kernels`): force on i, i's
-#: torque term, j's torque term.
-SLOT_OUT_WIDTH = 9
 #: Steps queued between two reads of the rebuild flag.
 BATCH = 32
 

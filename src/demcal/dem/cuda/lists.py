@@ -26,7 +26,7 @@ from numba import cuda
 from .. import neighbours as _nl
 from ..contact.registry import H_FLAG, HIST_WIDTH
 from ..forces import OUT_WIDTH, PAIR_OUT_WIDTH
-from .backend import SLOT_OUT_WIDTH
+from .layout import SLOT_OUT_WIDTH
 from .compile import device_function
 from .kernels import BLOCK, block_max, block_min, blocks
 
