@@ -230,7 +230,16 @@ def test_calibration_json_report_and_card_say_where_each_value_came_from(chained
     monkeypatch.chdir(folder)
     assert main(["export", "down.toml"]) == 0
     card = json.loads(capsys.readouterr().out)
-    assert card["warnings"] == []
+    # nothing about the chain; what any card of a cheap profile and the default models says, and
+    # calibration.json's own warnings (both loops verified: no condition is named)
+    assert [r.loop.status for r in cal.conditions] == ["verified", "verified"]
+    assert card["warnings"] == [
+        "designed at profile 'tiny' and verified at 'quick', cheaper than the paper's: the values are the quick "
+        "bench's, not the paper's.",
+        "the values do not carry over to LIGGGHTS 3.8, whose models differ from demcal's contact.model = "
+        "hysteretic_spring and rolling.model = type_a; choose contact.model = hertz_mindlin and rolling.model = "
+        "cdt in [experiment.settings] before the design, and calibrate again.", *data["warnings"]]
+    assert data["warnings"] and all("profile 'tiny'" in w for w in data["warnings"])
     for condition in card["conditions"]:
         values = upstream[condition["name"]]
         assert {k: condition["fixed_settings"][k] for k in FRICTION} == {

@@ -20,7 +20,7 @@ from demcal.campaign.config import load_campaign
 from demcal.cli import main
 from demcal.dem.contact.registry import SUBMODELS
 from demcal.export.card import (EDEM_ROLLING, LIGGGHTS_ROLLING, build_card, campaign_hash,
-                                resolved_config)
+                                resolved_config, transfer_warning)
 
 VERIFIED = {"response": "repose_angle_deg", "target": 31.07, "lab_sd": 2.1, "predicted": 31.07,
             "simulated": [30.5, 31.2, 31.9], "simulated_mean": 31.2, "simulated_sd": 0.7,
@@ -60,6 +60,14 @@ SLIDING_CALIBRATION = {
 #: type C's spring), three atom types (particle, steel, film).
 HERTZ_SETTINGS = ('\n[experiment.settings]\n"contact.model" = "hertz_mindlin"\n"rolling.model" = "type_c"\n'
                   '"particles.shape" = "sphere"\n"particle.shear_modulus" = 5e6\n"particle.poisson_ratio" = 0.3\n')
+
+
+#: The card's warnings on the repose calibration above (JSON: both codes' transferability).
+QUICK = "calibrated at profile 'quick', cheaper than the paper's: the values are the quick bench's, not the paper's."
+UNVERIFIED = "condition '14.1 %' is not verified: no verification run simulated its values."
+NOT_LIGGGHTS = ("the values do not carry over to LIGGGHTS 3.8, whose models differ from demcal's "
+                "contact.model = hysteretic_spring and rolling.model = type_a; choose contact.model = hertz_mindlin "
+                "and rolling.model = cdt in [experiment.settings] before the design, and calibrate again.")
 
 
 def _calibrate(folder, name: str, data: dict) -> None:
@@ -144,7 +152,8 @@ def test_json_card_holds_the_full_calibrated_material(repose, capsys):
     assert card["calibration"]["iterations"] == [{"box": 0, "runs": 29}]
     assert card["calibration"]["models"] == REPOSE_CALIBRATION["models"]
     assert "conditions" not in card["calibration"]
-    assert len(card["calibration_file"]["sha256"]) == 64 and card["warnings"] == []
+    assert len(card["calibration_file"]["sha256"]) == 64
+    assert card["warnings"] == [QUICK, UNVERIFIED, NOT_LIGGGHTS]
 
     edem, liggghts = card["codes"]["edem"], card["codes"]["liggghts"]
     assert (edem["contact_model"], edem["rolling_model"], edem["transferable"]) == (
@@ -234,7 +243,8 @@ def test_build_card_is_a_pure_function_of_campaign_and_calibration(repose):
     assert calibration == REPOSE_CALIBRATION and build_card(campaign, calibration, ["14.1 %"]) == card
     stale = dict(calibration, campaign="other")
     assert build_card(campaign, stale)["warnings"] == [
-        "calibration.json names campaign 'other', the campaign file 'repose'."]
+        "calibration.json names campaign 'other', the campaign file 'repose'.", QUICK, UNVERIFIED, NOT_LIGGGHTS]
+    assert build_card(campaign, calibration, ["6.26 %"], code="edem")["warnings"] == [QUICK]
 
 
 # ------------------------------------------------------------------------------- liggghts
@@ -243,9 +253,14 @@ def test_build_card_is_a_pure_function_of_campaign_and_calibration(repose):
 def test_liggghts_snippet_names_and_values(repose, capsys):
     text = _export(capsys, "repose.toml", "--format", "liggghts", "--condition", "6.26 %")
     lines = text.splitlines()
-    # the warning comes first: the values were calibrated with a model LIGGGHTS lacks
-    assert lines[1] == "# !!! NOT TRANSFERABLE TO LIGGGHTS !!!"
-    assert "contact.model = hysteretic_spring" in " ".join(lines[:5])
+    # the warnings come first: the card's (a quick calibration), then the models': the values
+    # were calibrated with a model LIGGGHTS lacks (said once, in full, not again in the head)
+    assert lines[:4] == ["# demcal material card: 1 warning; read it before using the values.",
+                         "# WARNING: calibrated at profile 'quick', cheaper than the paper's: the values are the",
+                         "#   quick bench's, not the paper's.", ""]
+    assert lines[5] == "# !!! NOT TRANSFERABLE TO LIGGGHTS !!!"
+    assert "contact.model = hysteretic_spring" in " ".join(lines[5:9])
+    assert "do not carry over to LIGGGHTS" not in text
     assert "pair_style gran model hertz tangential history rolling_friction cdt" in lines
     assert "fix dc_youngs all property/global youngsModulus peratomtype 2.92e+06 1.82e+11" in lines
     assert "fix dc_poisson all property/global poissonsRatio peratomtype 0.46 0.3" in lines
@@ -392,13 +407,113 @@ def test_edem_tables_of_a_jkr_material(example, capsys):
     assert "has no JKR cohesion" in " ".join(line.lstrip("# ") for line in ligg.splitlines())
 
 
+# ------------------------------------------------------------------------------ warnings
+
+
+def _warned(capsys, *argv) -> tuple[str, list[str]]:
+    """``demcal export argv``: exit status 0, the card on stdout, and the warnings of its
+    stderr (every line a ``demcal: warning:`` sentence)."""
+    assert main(["export", *argv]) == 0
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert all(line.startswith("demcal: warning: ") and line.endswith(".") for line in lines), lines
+    return captured.out, [line.removeprefix("demcal: warning: ") for line in lines]
+
+
+def test_every_warning_is_said_on_stderr_for_every_format(repose, capsys):
+    out, said = _warned(capsys, "repose.toml")
+    assert json.loads(out)["warnings"] == said == [QUICK, UNVERIFIED, NOT_LIGGGHTS]  # stdout stays the card
+    out, said = _warned(capsys, "repose.toml", "--format", "liggghts", "-o", "soil.liggghts")
+    assert out == "liggghts card: soil.liggghts\n" and said == [QUICK, UNVERIFIED, NOT_LIGGGHTS]
+    text = (repose / "soil.liggghts").read_text()
+    flat = " ".join(line.removeprefix("#").strip() for line in text.split("\n\n")[0].splitlines())
+    assert flat == f"demcal material card: 2 warnings; read them before using the values. " \
+                   f"WARNING: {QUICK} WARNING: {UNVERIFIED}"
+    assert text.count("NOT TRANSFERABLE TO LIGGGHTS") == 2  # once a block, not in the head
+    out, said = _warned(capsys, "repose.toml", "--format", "edem", "--condition", "6.26 %")
+    assert said == [QUICK]  # EDEM has the Hysteretic Spring and the standard rolling friction
+    assert out.startswith("# demcal material card: 1 warning; read it before using the values.\n# WARNING: ")
+    assert "14.1 %" not in out
+
+
+def test_tiny_profile_and_stopped_loops_are_named(repose, capsys):
+    """A tiny calibration whose loops stopped short: the profile (a smoke test), each
+    condition with its loop's status, and calibration.json's own warnings, as written."""
+    tiny = "profile 'tiny' is a smoke test; not a calibration: its particles are too few."
+    data = json.loads(json.dumps(REPOSE_CALIBRATION))
+    data.update(profile="tiny", production="tiny", warnings=[tiny])
+    data["conditions"][0].update(status="out of reach", status_reason="the path ends at the limits")
+    data["conditions"][1].update(status="unfinished", verification=[{**VERIFIED, "simulated": []}])
+    _calibrate(repose, "repose", data)
+    card, said = _warned(capsys, "repose.toml")
+    assert json.loads(card)["warnings"] == said == [
+        "calibrated at profile 'tiny' (a smoke test), cheaper than the paper's: the values are the tiny bench's, "
+        "not the paper's.",
+        "condition '6.26 %' is not verified: its calibration loop ended 'out of reach' (the test cannot give the "
+        "lab's angle within the factors' limits).",
+        "condition '14.1 %' is not verified: its calibration loop ended 'unfinished' (runs it asked for are not "
+        "done yet; run `demcal calibrate repose.toml` to finish them).",
+        NOT_LIGGGHTS, tiny]
+    # designed at one cheap profile and verified at another: the values are the second's
+    data.update(profile="tiny", production="quick", warnings=[])
+    for condition in data["conditions"]:
+        condition["status"] = "verified"
+    _calibrate(repose, "repose", data)
+    assert _warned(capsys, "repose.toml", "--format", "edem")[1] == [
+        "designed at profile 'tiny' and verified at 'quick', cheaper than the paper's: the values are the quick "
+        "bench's, not the paper's."]
+
+
+def test_verification_without_a_loop_status_is_judged(repose, capsys):
+    """A calibration.json without the loop's status (an older one): its verification runs
+    tell unfinished, missed and not judged (no lab sd) apart."""
+    data = json.loads(json.dumps(REPOSE_CALIBRATION))
+    data["conditions"][0]["verification"] = [{**VERIFIED, "within_lab_sd": False}]
+    data["conditions"][1]["verification"] = [{**VERIFIED, "simulated": []}, {**VERIFIED, "lab_sd": None,
+                                                                                "within_lab_sd": None}]
+    _calibrate(repose, "repose", data)
+    assert _warned(capsys, "repose.toml", "--format", "edem")[1] == [QUICK, (
+        "condition '6.26 %' is not verified: the simulated repose_angle_deg misses the lab's sd."), (
+        "condition '14.1 %' is not verified: the verification of repose_angle_deg is unfinished."), (
+        "condition '14.1 %' is not verified: repose_angle_deg has no lab sd to judge it by.")]
+
+
+def test_a_paper_verified_hertz_mindlin_cdt_card_warns_only_where_it_must(sliding, capsys):
+    """Hertz-Mindlin with cdt rolling, designed at quick and verified at the paper's profile:
+    nothing to warn about for LIGGGHTS; EDEM has no cdt. Verified at quick, it warns too."""
+    path = sliding / "sliding.toml"
+    path.write_text(path.read_text().replace('"rolling.model" = "type_c"', '"rolling.model" = "cdt"'))
+    data = json.loads(json.dumps(SLIDING_CALIBRATION))
+    data["production"] = "paper"
+    fixed = {"contact.model": "hertz_mindlin", "rolling.model": "cdt", "particles.shape": "sphere",
+             "particle.shear_modulus": 5e6, "particle.poisson_ratio": 0.3}
+    taken = REPOSE_CALIBRATION["conditions"][1]["chosen"]  # from_campaign = "repose.toml", as recorded
+    data["conditions"][0].update(status="verified", settings={
+        **{k: {"value": v, "source": "campaign file"} for k, v in fixed.items()},
+        **{k: {"value": v, "source": "campaign repose.toml, calibrated"} for k, v in taken.items()}})
+    _calibrate(sliding, "sliding", data)
+    out, said = _warned(capsys, "sliding.toml", "--format", "liggghts")
+    assert said == [] and out.startswith("# ---") and "NOT TRANSFERABLE" not in out and "WARNING" not in out
+    not_edem = transfer_warning({"contact": "hertz_mindlin", "rolling": "cdt"}, "edem")
+    assert not_edem == ("the values do not carry over to EDEM, whose models differ from demcal's rolling.model "
+                        "= cdt; choose rolling.model = type_a, type_c or rvd in [experiment.settings] before the "
+                        "design, and calibrate again.")
+    assert _warned(capsys, "sliding.toml")[1] == [not_edem]
+    out, said = _warned(capsys, "sliding.toml", "--format", "edem")
+    assert said == [not_edem] and "# NOT TRANSFERABLE" in out and "WARNING" not in out
+    data["production"] = "quick"
+    _calibrate(sliding, "sliding", data)
+    assert _warned(capsys, "sliding.toml", "--format", "liggghts")[1] == [QUICK]
+
+
 # ---------------------------------------------------------------------------- the command
 
 
 def test_out_file_is_written_whole(repose, capsys):
     assert main(["export", "repose.toml", "--format", "edem", "-o", "cards/soil.txt"]) == 0
     assert "cards/soil.txt" in capsys.readouterr().out
-    assert (repose / "cards" / "soil.txt").read_text().startswith("# demcal material card for EDEM")
+    assert "# demcal material card for EDEM" in (repose / "cards" / "soil.txt").read_text()
+    assert main(["export", "repose.toml", "--format", "edem", "-o", "cards/soil.txt"]) == 0  # its own card
     assert main(["export", "repose.toml", "-o", "cards/soil.txt"]) == 0  # replaced
     assert json.loads((repose / "cards" / "soil.txt").read_text())["card"] == "demcal material card"
     assert sorted(p.name for p in (repose / "cards").iterdir()) == ["soil.txt"]  # no temporary left

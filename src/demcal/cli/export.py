@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from demcal.cli._util import add_command
@@ -39,27 +40,42 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Write the card, then say each of its warnings on stderr (exit status 0 all the same)."""
+    from demcal.export import formatter
     from demcal.export.text import or_list
 
     if args.format not in FORMAT_NAMES:
         raise ConfigError(f"unknown export format '{args.format}'; choose {or_list(FORMAT_NAMES)}.")
-    text = export(args.campaign, args.format, args.condition, allow_outside=args.allow_outside,
-                  output=args.output, force=args.force)
+    card = material_card(args.campaign, args.format, args.condition, allow_outside=args.allow_outside,
+                         output=args.output, force=args.force)
+    text = formatter(args.format)(card)
     if args.output is None:
-        print(text, end="")
+        print(text, end="", flush=True)
     else:
         from demcal._files import write_atomic
 
         if args.output.parent != Path("") and not args.output.parent.is_dir():
             args.output.parent.mkdir(parents=True, exist_ok=True)
         write_atomic(args.output, text)
-        print(f"{args.format} card: {args.output}")
+        print(f"{args.format} card: {args.output}", flush=True)
+    for warning in card["warnings"]:
+        print(f"demcal: warning: {warning}", file=sys.stderr)
     return 0
 
 
 def export(campaign_path: Path, format: str = "json", conditions: list[str] | None = None, *,
            allow_outside: bool = False, output: Path | None = None, force: bool = False) -> str:
-    """The material card of the campaign file ``campaign_path`` in ``format``.
+    """The material card of the campaign file ``campaign_path`` in ``format``
+    (:func:`material_card`, formatted)."""
+    from demcal.export import formatter
+
+    return formatter(format)(material_card(campaign_path, format, conditions, allow_outside=allow_outside,
+                                           output=output, force=force))
+
+
+def material_card(campaign_path: Path, format: str = "json", conditions: list[str] | None = None, *,
+                  allow_outside: bool = False, output: Path | None = None, force: bool = False) -> dict:
+    """The material card of the campaign file ``campaign_path``, its warnings for ``format``.
 
     ``output``, where the card will be written, is checked first
     (:func:`demcal._files.check_output` against the campaign's inputs); a calibration
@@ -68,7 +84,6 @@ def export(campaign_path: Path, format: str = "json", conditions: list[str] | No
     from demcal.campaign.chain import read_calibration
     from demcal.campaign.config import load_campaign
     from demcal.campaign.files import campaign_inputs
-    from demcal.export import formatter
     from demcal.export.card import build_card
 
     campaign = load_campaign(campaign_path, allow_outside=allow_outside)
@@ -79,8 +94,8 @@ def export(campaign_path: Path, format: str = "json", conditions: list[str] | No
     if isinstance(profile, str) and profile != campaign.profile:
         campaign = campaign.with_profile(profile)  # the profile the values were calibrated at
     _refuse_stale(campaign, calibration, path)
-    card = build_card(campaign, calibration, conditions, {"path": str(path), "sha256": digest})
-    return formatter(format)(card)
+    return build_card(campaign, calibration, conditions, {"path": str(path), "sha256": digest},
+                      code=None if format == "json" else format)
 
 
 def _refuse_stale(campaign, calibration: dict, path: Path) -> None:

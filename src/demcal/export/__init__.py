@@ -10,7 +10,10 @@
   (:mod:`demcal.export.edem`).
 
 Each names the contact and rolling models the values assume in that code and says
-plainly when they do not carry over (the card's ``transferable`` flag per code).
+plainly when they do not carry over (the card's ``transferable`` flag per code). The
+card's ``warnings`` hold every reason not to trust it (a cheap profile, a condition not
+verified, models the code lacks); the text formats start with them and ``demcal export``
+says each on stderr.
 """
 
 from __future__ import annotations

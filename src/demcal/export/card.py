@@ -37,7 +37,15 @@ Layout::
                     calibration   every other key of the condition in calibration.json, as written
     calibration     every top-level key of calibration.json but its conditions, as written
     calibration_file  path and sha256 of calibration.json
-    warnings        what the reader must know (e.g. a calibration of another campaign)
+    warnings        every reason not to trust the card, one sentence each, in this order:
+                    calibration.json of another campaign name or of an edited campaign
+                    file, calibrated values that are not factors, settings taken from
+                    another campaign that calibration.json does not record; values verified
+                    at a profile cheaper than the paper's (tiny, quick, medium: the cheap
+                    bench's values); each exported condition not verified (its loop's
+                    status, or no, unfinished or missed verification runs); models that do
+                    not carry over to the code the card is for (both codes for the JSON
+                    card); then calibration.json's own warnings, as written
 
 The campaign hash (:func:`demcal.campaign.digest.campaign_hash`, re-exported here) is the
 same one ``demcal calibrate`` writes into calibration.json; ``demcal export`` refuses a
@@ -56,6 +64,20 @@ from demcal.campaign.digest import calibrated_from, campaign_hash, resolved_conf
 from demcal.errors import DataError
 
 CARD_VERSION = 1
+
+#: The profile of the paper's bench; values verified at any other are the cheaper bench's.
+PAPER_PROFILE = "paper"
+
+#: Why a condition's loop stopped short of verifying it, in a few words, by its status
+#: (:data:`demcal.campaign.loop.OUT_OF_REACH` ...; docs/guide-run.md, "7. Calibrate").
+LOOP_STOPS = {
+    "out of reach": "the test cannot give the lab's angle within the factors' limits",
+    "budget spent": "the run budget ran out first",
+    "iterations spent": "its re-solves or box moves ran out first",
+    "noise": "the mean's interval stayed wider than the lab sd at max_replicates",
+    "unfinished": "runs it asked for are not done yet",
+    "not verified": "its production runs failed or none were asked for",
+}
 
 #: Settings that describe the calibrated material (the rest belong to the virtual test).
 MATERIAL_PREFIXES = ("particle.", "wall.", "film.", "contact.", "rolling.")
@@ -152,7 +174,7 @@ LIGGGHTS_ROLLING = {
 
 
 def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] | None = None,
-               calibration_file: Mapping[str, str] | None = None) -> dict[str, Any]:
+               calibration_file: Mapping[str, str] | None = None, code: str | None = None) -> dict[str, Any]:
     """The material card of ``campaign`` calibrated as ``calibration`` (calibration.json).
 
     Parameters
@@ -166,6 +188,9 @@ def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] |
         The conditions to export (default: every calibrated condition of the campaign).
     calibration_file : mapping, optional
         ``path`` and ``sha256`` of calibration.json, recorded in the card.
+    code : {"edem", "liggghts"}, optional
+        The code the card is written for: its ``warnings`` say when the values do not
+        carry over to it (default: to either code, as the JSON card serves both).
 
     Raises
     ------
@@ -230,6 +255,8 @@ def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] |
     codes["edem"]["notes"] = [EDEM_NOTES[contact]] if contact in EDEM_NOTES else []
     shape = particle(first)
     codes["liggghts"].update(_liggghts_details(codes["liggghts"], cards[0], shape))
+    warnings = _trust_warnings(campaign, calibration, names, {"contact": contact, "rolling": rolling},
+                               [code] if code else ["edem", "liggghts"], warnings)
     return {
         "card": "demcal material card",
         "card_version": CARD_VERSION,
@@ -434,6 +461,79 @@ def _warnings(campaign, calibration: Mapping[str, Any]) -> list[str]:
             out.append(f"condition '{raw.get('name')}' has calibrated values of {', '.join(extra)}, "
                        "which are not factors of the campaign file.")
     return out
+
+
+def _trust_warnings(campaign, calibration: Mapping[str, Any], names: list[str], models: Mapping[str, str],
+                    codes: list[str], first: list[str]) -> list[str]:
+    """The card's warnings: ``first`` (:func:`_warnings`, :func:`fixed_settings`), then the
+    profile, each condition of ``names`` not verified, the ``codes`` the models do not carry
+    over to, and calibration.json's own warnings; each sentence once."""
+    out = list(first)
+    profile = profile_warning(campaign, calibration)
+    out += [profile] if profile else []
+    calibrated = {c.get("name"): c for c in calibration.get("conditions", []) if isinstance(c, Mapping)}
+    for name in names:
+        out += condition_warnings(campaign, name, calibrated[name])
+    out += [w for w in (transfer_warning(models, code) for code in codes) if w]
+    out += [w for w in calibration.get("warnings") or [] if isinstance(w, str)]
+    return list(dict.fromkeys(out))
+
+
+def profile_warning(campaign, calibration: Mapping[str, Any]) -> str | None:
+    """One sentence when the values were verified at a profile cheaper than the paper's
+    (``production`` of calibration.json, else its ``profile``): they are that bench's."""
+    cheap = str(calibration.get("profile") or campaign.profile)
+    verified = str(calibration.get("production") or cheap)
+    if verified == PAPER_PROFILE:
+        return None
+    where = (f"calibrated at profile '{cheap}'" if verified == cheap
+             else f"designed at profile '{cheap}' and verified at '{verified}'")
+    smoke = " (a smoke test)" if verified == "tiny" else ""
+    return f"{where}{smoke}, cheaper than the paper's: the values are the {verified} bench's, not the paper's."
+
+
+def condition_warnings(campaign, name: str, calibrated: Mapping[str, Any]) -> list[str]:
+    """Why condition ``name`` (its entry ``calibrated`` of calibration.json) is not verified:
+    its loop's ``status`` when that is not "verified", else (a calibration without a loop
+    status) no verification runs, unfinished ones, or a mean outside the lab's sd."""
+    status = calibrated.get("status")
+    if status is not None:
+        if status == "verified":
+            return []
+        why = LOOP_STOPS.get(str(status))
+        if status == "unfinished":
+            why += f"; run `demcal calibrate {campaign.path}` to finish them"
+        return [f"condition '{name}' is not verified: its calibration loop ended '{status}'"
+                + (f" ({why})." if why else ".")]
+    checks = [v for v in calibrated.get("verification") or [] if isinstance(v, Mapping)]
+    if not checks:
+        return [f"condition '{name}' is not verified: no verification run simulated its values."]
+    out = []
+    for v in checks:
+        response = v.get("response")
+        if not v.get("simulated"):
+            out.append(f"condition '{name}' is not verified: the verification of {response} is unfinished.")
+        elif v.get("within_lab_sd") is False:
+            out.append(f"condition '{name}' is not verified: the simulated {response} misses the lab's sd.")
+        elif v.get("within_lab_sd") is None:
+            out.append(f"condition '{name}' is not verified: {response} has no lab sd to judge it by.")
+    return out
+
+
+def transfer_warning(models: Mapping[str, str], code: str) -> str | None:
+    """One sentence when the values calibrated with ``models`` (contact, rolling) do not
+    carry over to ``code`` ("edem", "liggghts"), naming the models to choose instead."""
+    from demcal.export.text import not_transferable, or_list
+
+    tables = {"edem": (EDEM_CONTACT, EDEM_ROLLING), "liggghts": (LIGGGHTS_CONTACT, LIGGGHTS_ROLLING)}[code]
+    wrong, choose = [], []
+    for (kind, name), table in zip(models.items(), tables):
+        if not table.get(name, (None, False, ""))[1]:
+            wrong.append(f"{kind}.model = {name}")
+            choose.append(f"{kind}.model = {or_list(m for m, (_, ok, _) in table.items() if ok and m != 'none')}")
+    if not wrong:
+        return None
+    return not_transferable(code, wrong, choose)
 
 
 def _json_safe(value: Any) -> Any:

@@ -16,12 +16,13 @@ import csv
 import io
 from typing import Any, Mapping
 
-from demcal.export.text import calibrated_line, lab_line, number, verification_lines, wrap
+from demcal.export.text import calibrated_line, lab_line, number, verification_lines, warning_head, wrap
 
 
 def to_edem(card: Mapping[str, Any]) -> str:
-    """Every condition of ``card`` as an EDEM block, one after the other."""
-    return "\n".join(condition_block(card, condition) for condition in card["conditions"])
+    """Every condition of ``card`` as an EDEM block, one after the other, under the card's
+    warnings (comment lines)."""
+    return warning_head(card, "edem") + "\n".join(condition_block(card, condition) for condition in card["conditions"])
 
 
 def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> str:

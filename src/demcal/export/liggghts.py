@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
-from demcal.export.text import calibrated_line, lab_line, number, verification_lines, wrap
+from demcal.export.text import calibrated_line, lab_line, number, verification_lines, warning_head, wrap
 
 #: Atom type of each material, in this order.
 MATERIAL_ORDER = ("particle", "steel", "film")
@@ -58,14 +58,15 @@ _FIRST_SEED = 15485863
 
 
 def to_liggghts(card: Mapping[str, Any]) -> str:
-    """Every condition of ``card`` as a LIGGGHTS 3.8 block, one after the other."""
+    """Every condition of ``card`` as a LIGGGHTS 3.8 block, one after the other, under the
+    card's warnings (comment lines)."""
     blocks = [condition_block(card, condition) for condition in card["conditions"]]
+    head = warning_head(card, "liggghts")
     if len(blocks) > 1:
         names = ", ".join(f"'{c['name']}'" for c in card["conditions"])
-        head = (f"# demcal material card: {len(blocks)} conditions ({names}), one block each.\n"
-                f"# Paste ONE block into an input script; `demcal export --condition NAME` writes one.\n\n")
-        return head + "\n".join(blocks)
-    return blocks[0]
+        head += (f"# demcal material card: {len(blocks)} conditions ({names}), one block each.\n"
+                 f"# Paste ONE block into an input script; `demcal export --condition NAME` writes one.\n\n")
+    return head + "\n".join(blocks)
 
 
 def atom_types(condition: Mapping[str, Any]) -> dict[str, int]:

@@ -5,6 +5,9 @@ from __future__ import annotations
 import textwrap
 from typing import Any, Mapping
 
+#: Code key of the card -> its name in a sentence.
+CODE_NAMES = {"edem": "EDEM", "liggghts": "LIGGGHTS 3.8"}
+
 
 def number(x, digits: int = 6) -> str:
     """A number with up to ``digits`` significant digits, as LIGGGHTS and EDEM read it."""
@@ -83,3 +86,28 @@ def calibrated_line(condition: Mapping[str, Any]) -> str:
     for source, values in taken.items():
         text += f"; {source}: {', '.join(values)}"
     return text + "; every other value is a default (the JSON card gives each value's source)."
+
+
+def not_transferable(code: str, wrong: list[str], choose: list[str]) -> str:
+    """The card's warning that values calibrated with the ``wrong`` models do not carry
+    over to ``code`` ("edem", "liggghts"), with the models to ``choose`` instead."""
+    return (f"{_transfer_lead(code)} whose models differ from demcal's {' and '.join(wrong)}; choose "
+            f"{' and '.join(choose)} in [experiment.settings] before the design, and calibrate again.")
+
+
+def _transfer_lead(code: str) -> str:
+    return f"the values do not carry over to {CODE_NAMES[code]},"
+
+
+def warning_head(card: Mapping[str, Any], code: str) -> str:
+    """The card's warnings as comment lines for the top of ``code``'s text, then a blank
+    line ("" without warnings); the one on the models is left to the blocks, which say it
+    in full (NOT TRANSFERABLE)."""
+    shown = [w for w in card.get("warnings", []) if not w.startswith(_transfer_lead(code))]
+    if not shown:
+        return ""
+    lines = [f"# demcal material card: {len(shown)} warning{'s' if len(shown) > 1 else ''}; read "
+             f"{'them' if len(shown) > 1 else 'it'} before using the values."]
+    for warning in shown:
+        lines += wrap(f"WARNING: {warning}", "# ")
+    return "".join(f"{line}\n" for line in lines) + "\n"
