@@ -73,13 +73,15 @@ def inside(path: Path, folder: Path) -> bool:
     return path == folder or folder in path.parents
 
 
-def check_output(path, kind: str, *, inputs=(), force: bool = False, option: str = "-o") -> Path:
+def check_output(path, kind: str, *, inputs=(), force: bool = False, option: str = "-o",
+                 of: str = "the campaign") -> Path:
     """Refuse the output path ``path`` of ``kind`` before any work is done.
 
     Refused, each with one sentence naming the path: a target that is not a regular
     file; one of ``inputs`` (files, or folders whose contents are all inputs), links
     followed on both sides, even with ``force``; an existing file that demcal did not
-    write as ``kind`` (:data:`SIGNATURES`), unless ``force``. Returns ``path``.
+    write as ``kind`` (:data:`SIGNATURES`), unless ``force``. ``of`` names whose inputs
+    they are in the sentence. Returns ``path``.
     """
     path = Path(path)
     kind_of = special_file(path)
@@ -90,9 +92,9 @@ def check_output(path, kind: str, *, inputs=(), force: bool = False, option: str
     for item in inputs:
         item = Path(item)
         if inside(target, item.resolve()):
-            what = "lies inside" if target != item.resolve() else "is"
-            raise ConfigError(f"{option} {path} {what} {item}, an input of the campaign; give another "
-                              "output path (an output never replaces an input).")
+            where = (f"lies inside {item}, an input of {of}" if target != item.resolve() else
+                     f"is an input of {of}" + (f" ({item})" if os.path.normpath(item) != os.path.normpath(path) else ""))
+            raise ConfigError(f"{option} {path} {where}; give another output path (an output never replaces an input).")
     if path.exists() and not force and not written_by_demcal(path, kind):
         raise ConfigError(f"{option} {path} exists and is not a {_KIND_NAMES[kind]} that demcal wrote; "
                           "give another path, move that file away, or pass --force to replace it.")

@@ -286,8 +286,10 @@ def test_a_poor_model_warns(calibrated):
 
 
 def test_prediction_intervals_of_the_verification_runs(calibrated, report_path):
-    """Issue 19: a 95 % interval of one new run at the chosen parameters (the final box's
-    model shifted by the discrepancy), and "confirmed" only when every run lies inside."""
+    """Issue 19, issue 40 item 3: the model check compares the mean of the n verification
+    runs with the model's 95 % prediction interval of a mean of n (the final box's model
+    shifted by the discrepancy), a rule that does not fail more often as runs are added;
+    one run's interval is kept beside it."""
     import pandas as pd
     from scipy import stats
 
@@ -298,28 +300,33 @@ def test_prediction_intervals_of_the_verification_runs(calibrated, report_path):
         (v,) = result.verdicts
         model = result.loop.models[v.response]
         point = np.array([[result.chosen_coded[n] for n in campaign.factor_names]])
-        half = stats.t.ppf(0.975, model.df_residual) * np.sqrt(model.mse + model.prediction_se(point)[0] ** 2)
+        t, se = stats.t.ppf(0.975, model.df_residual), model.prediction_se(point)[0]
+        half = t * np.sqrt(model.mse + se ** 2)
         assert v.interval == pytest.approx((v.predicted - half, v.predicted + half), rel=1e-9)
-        inside = [v.interval[0] <= x <= v.interval[1] for x in v.simulated]
-        assert v.inside_interval == inside and len(inside) >= 1
-        outside = len(inside) - sum(inside)
-        assert v.confirmation == ("confirmed" if not outside else f"not confirmed ({outside} of {len(inside)} outside)")
+        n = len(v.simulated)
+        half_mean = t * np.sqrt(model.mse / n + se ** 2)
+        assert n >= 1 and v.mean_interval == pytest.approx((v.predicted - half_mean, v.predicted + half_mean), rel=1e-9)
+        lo, hi = v.mean_interval
+        assert v.confirmation == ("confirmed" if lo <= v.simulated_mean <= hi else
+                                  f"not confirmed (the mean {v.simulated_mean:.2f} lies outside {lo:.2f} to {hi:.2f})")
     assert cal.conditions[2].verdicts[0].confirmation == "not simulated yet"
     table = pd.read_csv(report_path.parent / "tables" / "verification.csv", index_col=0)
-    assert list(table["verdict"]) == [r.verdicts[0].confirmation for r in cal.conditions]
-    assert list(table["runs inside PI"].fillna("").iloc[:2]) == [
-        f"{sum(r.verdicts[0].inside_interval)}/{len(r.verdicts[0].simulated)}" for r in cal.conditions[:2]]
-    assert table["95 % PI low"].iloc[0] == pytest.approx(cal.conditions[0].verdicts[0].interval[0])
+    assert list(table["model check"]) == [r.verdicts[0].confirmation for r in cal.conditions]
+    assert table["95 % PI of the mean, low"].iloc[0] == pytest.approx(cal.conditions[0].verdicts[0].mean_interval[0])
     assert "cheap model" in report_path.read_text() or "from the fitted model" in report_path.read_text()
     saved = json.loads((campaign.workdir / "calibration.json").read_text())["conditions"][0]["verification"][0]
     assert saved["confirmation"] == cal.conditions[0].verdicts[0].confirmation
     assert saved["prediction_interval"]["level"] == 0.95
     assert saved["prediction_interval"]["low"] == pytest.approx(cal.conditions[0].verdicts[0].interval[0])
-    assert "95 % prediction interval" in describe(cal)
-    missed = ResponseVerdict("y", 1.0, None, 0.5, [0.5, 2.0], (0.0, 1.0), interval=(0.0, 1.0))
-    assert missed.confirmation == "not confirmed (1 of 2 outside)"
-    hit = ResponseVerdict("y", 1.0, None, 0.5, [0.2, 0.6, 0.9], (0.0, 1.0), interval=(0.0, 1.0))
-    assert hit.confirmation == "confirmed" and hit.inside_interval == [True] * 3
+    assert saved["mean_interval"]["n"] == len(cal.conditions[0].verdicts[0].simulated)
+    assert "model check" in describe(cal)
+    # centre 0.5, t 2, MSE 1, se 0: one run's interval is 0.5 ± 2; a mean of 16 runs, 0.5 ± 0.5
+    many = ResponseVerdict("y", 1.0, None, 0.5, [0.9] * 8 + [2.4] * 8, (0.0, 1.0), parts=(0.5, 2.0, 1.0, 0.0))
+    assert many.mean_interval == pytest.approx((0.0, 1.0))
+    assert many.confirmation == "not confirmed (the mean 1.65 lies outside 0.00 to 1.00)"
+    # 14 of 16 runs outside one run's interval [-1.5, 2.5], yet their mean inside the mean's interval
+    spread = ResponseVerdict("y", 1.0, None, 0.5, [-1.6, 2.6] * 7 + [0.4, 0.6], (0.0, 1.0), parts=(0.5, 2.0, 1.0, 0.0))
+    assert spread.confirmation == "confirmed"
 
 
 def test_a_copied_campaign_file_finds_the_results_and_two_files_cannot_mix(campaign_file, capsys):

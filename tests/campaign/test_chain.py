@@ -234,8 +234,8 @@ def test_calibration_json_report_and_card_say_where_each_value_came_from(chained
     # calibration.json's own warnings (both loops verified: no condition is named)
     assert [r.loop.status for r in cal.conditions] == ["verified", "verified"]
     assert card["warnings"] == [
-        "designed at profile 'tiny' and verified at 'quick', cheaper than the paper's: the values are the quick "
-        "bench's, not the paper's.",
+        "designed at profile 'tiny' and verified at 'quick', smaller than the full-size bench: the values are the quick "
+        "bench's, not the full-size one's.",
         "the values do not carry over to LIGGGHTS 3.8, whose models differ from demcal's contact.model = "
         "hysteretic_spring and rolling.model = type_a; choose contact.model = hertz_mindlin and rolling.model = "
         "cdt in [experiment.settings] before the design, and calibrate again.", *data["warnings"]]

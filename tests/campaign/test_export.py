@@ -63,7 +63,7 @@ HERTZ_SETTINGS = ('\n[experiment.settings]\n"contact.model" = "hertz_mindlin"\n"
 
 
 #: The card's warnings on the repose calibration above (JSON: both codes' transferability).
-QUICK = "calibrated at profile 'quick', cheaper than the paper's: the values are the quick bench's, not the paper's."
+QUICK = "calibrated at profile 'quick', smaller than the full-size bench: the values are the quick bench's, not the full-size one's."
 UNVERIFIED = "condition '14.1 %' is not verified: no verification run simulated its values."
 NOT_LIGGGHTS = ("the values do not carry over to LIGGGHTS 3.8, whose models differ from demcal's "
                 "contact.model = hysteretic_spring and rolling.model = type_a; choose contact.model = hertz_mindlin "
@@ -256,8 +256,8 @@ def test_liggghts_snippet_names_and_values(repose, capsys):
     # the warnings come first: the card's (a quick calibration), then the models': the values
     # were calibrated with a model LIGGGHTS lacks (said once, in full, not again in the head)
     assert lines[:4] == ["# demcal material card: 1 warning; read it before using the values.",
-                         "# WARNING: calibrated at profile 'quick', cheaper than the paper's: the values are the",
-                         "#   quick bench's, not the paper's.", ""]
+                         "# WARNING: calibrated at profile 'quick', smaller than the full-size bench: the values",
+                         "#   are the quick bench's, not the full-size one's.", ""]
     assert lines[5] == "# !!! NOT TRANSFERABLE TO LIGGGHTS !!!"
     assert "contact.model = hysteretic_spring" in " ".join(lines[5:9])
     assert "do not carry over to LIGGGHTS" not in text
@@ -447,8 +447,8 @@ def test_tiny_profile_and_stopped_loops_are_named(repose, capsys):
     _calibrate(repose, "repose", data)
     card, said = _warned(capsys, "repose.toml")
     assert json.loads(card)["warnings"] == said == [
-        "calibrated at profile 'tiny' (a smoke test), cheaper than the paper's: the values are the tiny bench's, "
-        "not the paper's.",
+        "calibrated at profile 'tiny' (a smoke test), smaller than the full-size bench: the values are the tiny bench's, "
+        "not the full-size one's.",
         "condition '6.26 %' is not verified: its calibration loop ended 'out of reach' (the test cannot give the "
         "lab's angle within the factors' limits).",
         "condition '14.1 %' is not verified: its calibration loop ended 'unfinished' (runs it asked for are not "
@@ -460,8 +460,8 @@ def test_tiny_profile_and_stopped_loops_are_named(repose, capsys):
         condition["status"] = "verified"
     _calibrate(repose, "repose", data)
     assert _warned(capsys, "repose.toml", "--format", "edem")[1] == [
-        "designed at profile 'tiny' and verified at 'quick', cheaper than the paper's: the values are the quick "
-        "bench's, not the paper's."]
+        "designed at profile 'tiny' and verified at 'quick', smaller than the full-size bench: the values are the quick "
+        "bench's, not the full-size one's."]
 
 
 def test_verification_without_a_loop_status_is_judged(repose, capsys):

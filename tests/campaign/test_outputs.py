@@ -207,7 +207,7 @@ def test_export_refuses_a_calibration_of_another_campaign(calibrated_example, ca
     assert saved["campaign_hash"] != campaign_hash(load_campaign(path))
     calibration.write_text(json.dumps(saved))
     assert main(["export", "repose.toml", "-o", "card.json"]) == 0
-    assert json.loads(Path("card.json").read_text())["warnings"] == []
+    assert not any("changed since" in w for w in json.loads(Path("card.json").read_text())["warnings"])
     capsys.readouterr()
     card = Path("card.json").read_bytes()
     for edited, old, new in ((path, "low = 0.3\nhigh = 0.5", "low = 0.3\nhigh = 0.6"),

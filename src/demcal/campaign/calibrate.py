@@ -63,6 +63,9 @@ class ResponseVerdict:
     interval: tuple[float, float] = (float("nan"), float("nan"))
     #: why there is no interval, when there is none
     no_interval: str = "no residual degrees of freedom"
+    #: what the intervals are made of (:func:`prediction_parts`): the model's prediction,
+    #: the t quantile, the residual mean square and the prediction's standard error
+    parts: tuple[float, float, float, float] = (float("nan"),) * 4
 
     @property
     def simulated_mean(self) -> float:
@@ -83,22 +86,31 @@ class ResponseVerdict:
         return abs(self.simulated_mean - self.target) <= self.lab_sd
 
     @property
-    def inside_interval(self) -> list[bool]:
-        """Each verification run inside the prediction interval, or not."""
-        lo, hi = self.interval
-        return [bool(lo <= x <= hi) for x in self.simulated] if np.isfinite(lo) and np.isfinite(hi) else []
+    def mean_interval(self) -> tuple[float, float]:
+        """The model's 95 % prediction interval of the mean of the ``n`` verification runs:
+        ``centre ± t · sqrt(MSE / n + se²)`` (one run's interval for ``n`` = 1), so that the
+        check it makes does not fail more often as replicates are added."""
+        centre, t, mse, se = self.parts
+        n = len(self.simulated)
+        if n == 0 or not np.all(np.isfinite(self.parts)):
+            return float("nan"), float("nan")
+        half = t * float(np.sqrt(mse / n + se * se))
+        return centre - half, centre + half
 
     @property
     def confirmation(self) -> str:
-        """"confirmed" when every verification run lies inside the prediction interval."""
+        """The model check: "confirmed" when the mean of the verification runs lies inside
+        the model's prediction interval for a mean of that many runs (:attr:`mean_interval`).
+        It says whether the response model predicted the simulation; whether the
+        calibration is verified is the lab's rule (:attr:`within_lab_sd` and the loop's)."""
         if not self.simulated:
             return "not simulated yet"
-        if not np.all(np.isfinite(self.interval)):
+        lo, hi = self.mean_interval
+        if not (np.isfinite(lo) and np.isfinite(hi)):
             return f"no interval ({self.no_interval})"
-        inside = self.inside_interval
-        if all(inside):
+        if lo <= self.simulated_mean <= hi:
             return "confirmed"
-        return f"not confirmed ({len(inside) - sum(inside)} of {len(inside)} outside)"
+        return f"not confirmed (the mean {self.simulated_mean:.2f} lies outside {lo:.2f} to {hi:.2f})"
 
     @property
     def target_reachable(self) -> bool:
@@ -215,7 +227,9 @@ class Calibration:
                      "within_lab_sd": v.within_lab_sd, "reachable": list(v.reachable),
                      "target_reachable": v.target_reachable,
                      "prediction_interval": {"level": PREDICTION_LEVEL, "low": _num(v.interval[0]),
-                                             "high": _num(v.interval[1]), "inside": v.inside_interval},
+                                             "high": _num(v.interval[1])},
+                     "mean_interval": {"level": PREDICTION_LEVEL, "n": len(v.simulated),
+                                       "low": _num(v.mean_interval[0]), "high": _num(v.mean_interval[1])},
                      "confirmation": v.confirmation}
                     for v in result.verdicts
                 ],
@@ -395,26 +409,35 @@ def adequacy_warnings(campaign: Campaign, models: dict, profile: bool = True) ->
     return out
 
 
-def prediction_interval(model, corrected, point, level: float = PREDICTION_LEVEL) -> tuple[float, float]:
-    """The ``level`` prediction interval of one new run at the coded ``point``.
-
-    ``corrected.predict(point) ± t(1 - (1 - level)/2, df_res) · sqrt(MSE + se²)``,
-    with ``se`` the standard error of the mean prediction of ``model`` (the cheap
-    profile's fit in its box) and ``corrected`` that model plus the discrepancy
-    (:class:`demcal.campaign.loop.CorrectedSurface`): the discrepancy's mean shifts the
-    interval, its own uncertainty is not added (the regression prediction interval of
-    Montgomery, *Design and Analysis of Experiments*, chapter "Fitting Regression Models").
-    """
+def prediction_parts(model, corrected, point, level: float = PREDICTION_LEVEL) -> tuple[float, float, float, float]:
+    """What the ``level`` prediction intervals at the coded ``point`` are made of:
+    ``(centre, t, MSE, se)`` with ``centre = corrected.predict(point)``, ``t`` the
+    ``1 - (1 - level)/2`` quantile at the residual degrees of freedom, ``MSE`` the
+    residual mean square and ``se`` the standard error of the mean prediction of
+    ``model`` (the cheap profile's fit in its box); ``corrected`` is that model plus the
+    discrepancy (:class:`demcal.campaign.loop.CorrectedSurface`), whose mean shifts the
+    interval and whose own uncertainty is not added (the regression prediction interval
+    of Montgomery, *Design and Analysis of Experiments*, chapter "Fitting Regression
+    Models"). NaNs when the model has no residual degrees of freedom."""
     from scipy import stats
 
     df = getattr(model, "df_residual", 0)
     mse = getattr(model, "mse", float("nan"))
     if df <= 0 or not np.isfinite(mse):
-        return float("nan"), float("nan")
+        return (float("nan"),) * 4
     point = np.asarray(point, float)
     se = float(model.prediction_se(point[None, :])[0])
     centre = float(np.asarray(corrected.predict(point[None, :]))[0])
-    half = float(stats.t.ppf(0.5 + level / 2, df)) * float(np.sqrt(mse + se * se))
+    return centre, float(stats.t.ppf(0.5 + level / 2, df)), float(mse), se
+
+
+def prediction_interval(model, corrected, point, level: float = PREDICTION_LEVEL) -> tuple[float, float]:
+    """The ``level`` prediction interval of one new run at the coded ``point``:
+    ``centre ± t · sqrt(MSE + se²)`` (:func:`prediction_parts`)."""
+    centre, t, mse, se = prediction_parts(model, corrected, point, level)
+    if not np.isfinite(mse):
+        return float("nan"), float("nan")
+    half = t * float(np.sqrt(mse + se * se))
     return centre - half, centre + half
 
 
@@ -521,6 +544,8 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
             simulated=[], reachable=tuple(map(float, reachable_range(model))),
             interval=(prediction_interval(loop.models[target.response], model, point) if on_path is None
                       else (float("nan"), float("nan"))),
+            parts=(prediction_parts(loop.models[target.response], model, point) if on_path is None
+                   else (float("nan"),) * 4),
             **({} if on_path is None else {"no_interval": f"{'the end of' if on_path.get('limit') else 'a point on'} "
                                                           f"the path of steepest {on_path['way']}, beyond the "
                                                           f"box's model"}),
@@ -601,9 +626,10 @@ def describe(calibration: Calibration) -> str:
                    f"{inside} the lab spread" if v.simulated else "not simulated yet")
             sd = f" ± {v.lab_sd:g}" if v.lab_sd is not None else ""
             lines.append(f"  {v.response}: target {v.target:g}{sd}, predicted {v.predicted:.2f}, {sim}")
-            if np.all(np.isfinite(v.interval)):
-                lines.append(f"  {v.response}: 95 % prediction interval {v.interval[0]:.2f} to {v.interval[1]:.2f}"
-                             + (f": {v.confirmation}" if v.simulated else ""))
+            if v.simulated and np.all(np.isfinite(v.mean_interval)):
+                lo, hi = v.mean_interval
+                lines.append(f"  {v.response}: model check: the model's 95 % interval for a mean of "
+                             f"{len(v.simulated)} is {lo:.2f} to {hi:.2f}: {v.confirmation}")
         for note in result.notes:
             lines.append(f"  note: {note}")
     for note in calibration.notes:

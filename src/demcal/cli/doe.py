@@ -200,7 +200,7 @@ def run(args) -> int:
         from demcal._files import check_output
 
         check_output(args.output, "design", inputs=[args.runs_csv] if getattr(args, "runs_csv", None) else [],
-                     force=args.force)
+                     force=args.force, of="this command")
     design = build_design(args)
     if args.output:
         write_design_csv(design, args.output, coded=args.coded)

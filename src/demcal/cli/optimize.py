@@ -78,7 +78,8 @@ def run(args) -> int:
     if args.plot:  # before anything is read or computed
         from demcal._files import check_output
 
-        check_output(args.plot, "figure", inputs=[args.runs_csv], force=args.force, option="--plot")
+        check_output(args.plot, "figure", inputs=[args.runs_csv], force=args.force, option="--plot",
+                     of="this command")
     from demcal.optimize.search import optimize
     from demcal.rsm.fit import fit_response_surface
     from demcal.rsm.reduce import backward_elimination

@@ -489,7 +489,7 @@ def profile_warning(campaign, calibration: Mapping[str, Any]) -> str | None:
     where = (f"calibrated at profile '{cheap}'" if verified == cheap
              else f"designed at profile '{cheap}' and verified at '{verified}'")
     smoke = " (a smoke test)" if verified == "tiny" else ""
-    return f"{where}{smoke}, cheaper than the paper's: the values are the {verified} bench's, not the paper's."
+    return f"{where}{smoke}, smaller than the full-size bench: the values are the {verified} bench's, not the full-size one's."
 
 
 def condition_warnings(campaign, name: str, calibrated: Mapping[str, Any]) -> list[str]:
