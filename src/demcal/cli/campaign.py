@@ -123,9 +123,39 @@ def _report(args) -> int:
     from demcal.report.campaign_report import write_report
 
     campaign = _load(args, simulate=False)
+    campaign, replayed = _as_calibrated(campaign, profile_given=args.profile is not None)
     path = write_report(campaign, out=args.out)
-    print(f"Report: {path}")
+    print(f"Report: {path}" + (f" (replayed with the options calibrate ran with: {replayed})" if replayed else ""))
     return 0
+
+
+def _as_calibrated(campaign, profile_given: bool):
+    """The campaign with the design and production profiles its calibration.json records
+    (so that the report shows what ``calibrate`` said), unless ``--profile`` asks for
+    another design profile or the campaign file changed since; and the words that say so
+    ("" when nothing changed)."""
+    import json
+
+    from demcal.campaign.chain import calibration_path
+    from demcal.campaign.digest import calibrated_from
+
+    try:
+        saved = json.loads(calibration_path(campaign).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return campaign, ""
+    if not isinstance(saved, dict) or calibrated_from(campaign, saved) is False:
+        return campaign, ""
+    profile, production = saved.get("profile"), saved.get("production")
+    said = []
+    if isinstance(profile, str) and profile != campaign.profile:
+        if profile_given:
+            return campaign, ""  # the runs of another profile than the calibration's
+        campaign = campaign.with_profile(profile)
+        said.append(f"designs at {profile}")
+    if isinstance(production, str) and production != campaign.calibration.production:
+        campaign = campaign.with_production(production)
+        said.append(f"verification at {production}")
+    return campaign, ", ".join(said)
 
 
 def _demo(args) -> int:
