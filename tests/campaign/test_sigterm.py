@@ -34,6 +34,20 @@ ROOT = Path(__file__).resolve().parents[2]
 INTERRUPTED = "demcal: interrupted{how}; finished results are kept."
 
 
+@pytest.fixture(autouse=True)
+def _signals_as_in_a_terminal():
+    """Each test starts with the handlers of a command typed in a terminal (Ctrl-C raises
+    KeyboardInterrupt, SIGTERM and SIGHUP stop), whatever the suite was started under: a
+    background job (`make test &`) ignores SIGINT, `nohup` ignores SIGHUP, and demcal
+    rightly keeps an ignored signal ignored."""
+    wanted = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL,
+              signal.SIGHUP: signal.SIG_DFL}
+    before = {number: signal.signal(number, handler) for number, handler in wanted.items()}
+    yield
+    for number, handler in before.items():
+        signal.signal(number, handler)
+
+
 def hidden(campaign) -> set[str]:
     """Temporary and old folders under ``runs/`` (none may stay)."""
     runs = campaign.workdir / "runs"
