@@ -130,10 +130,18 @@ def run_case(name, model, rolling, clumps, walls, n, stir, steps, folder) -> dic
 
 
 def main(argv=None) -> int:
-    steps = int((argv or sys.argv[1:] or ["30"])[0])
+    """``cuda_sim_cases.py [STEPS [INDEX,INDEX,...]]``: the cases of :data:`CASES` (all by
+    default), one JSON line each with its wall time."""
+    import time
+
+    args = argv or sys.argv[1:]
+    steps = int(args[0]) if args else 30
+    chosen = [int(i) for i in args[1].split(",")] if len(args) > 1 else range(len(CASES))
     with tempfile.TemporaryDirectory() as folder:
-        for case in CASES:
-            print(json.dumps(run_case(*case, steps, folder)), flush=True)
+        for index in chosen:
+            start = time.perf_counter()
+            result = run_case(*CASES[index], steps, folder)
+            print(json.dumps({**result, "seconds": round(time.perf_counter() - start, 1)}), flush=True)
     return 0
 
 
