@@ -49,12 +49,13 @@ def special_file(path) -> str | None:
     return "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
 
 
-def refuse_special(path, what: str = "output") -> None:
-    """One sentence if ``path`` exists and is not a regular file (links followed)."""
+def refuse_special(path, option: str = "") -> None:
+    """One sentence if ``path`` (given as ``option``, when named) exists and is not a
+    regular file (links followed)."""
     kind = special_file(path)
     if kind is not None:
-        raise ConfigError(f"cannot write the {what} to {path}: it is {kind}, not a regular file; "
-                          "give the path of a file.")
+        what = "is a folder" if kind == "a folder" else f"is {kind}, not a regular file"
+        raise ConfigError(f"{option + ' ' if option else ''}{path} {what}; give a file path.")
 
 
 def written_by_demcal(path, kind: str) -> bool:
@@ -84,10 +85,7 @@ def check_output(path, kind: str, *, inputs=(), force: bool = False, option: str
     they are in the sentence. Returns ``path``.
     """
     path = Path(path)
-    kind_of = special_file(path)
-    if kind_of is not None:
-        what = "is a folder" if kind_of == "a folder" else f"is {kind_of}, not a regular file"
-        raise ConfigError(f"{option} {path} {what}; give a file path.")
+    refuse_special(path, option)
     target = path.resolve()
     for item in inputs:
         item = Path(item)

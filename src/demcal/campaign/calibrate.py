@@ -14,8 +14,9 @@
 3. the chosen parameters are simulated again (``[verification] replicates``) through
    the same runner and store, and the simulated mean is set against the lab's mean
    with its relative error and whether it lies inside the lab's standard deviation;
-   each run is also set against the model's 95 % prediction interval of a single new
-   run there (:func:`prediction_interval`): "confirmed" only when every run lies inside.
+   beside that verdict, the model check sets their mean against the model's 95 %
+   prediction interval of a mean of that many runs (:func:`prediction_parts`,
+   :attr:`ResponseVerdict.mean_interval`).
 
 The model's adequacy is checked before anything is trusted (:func:`adequacy_warnings`,
 Design-Expert's rules): predicted R² negative or more than 0.2 below adjusted R²,
@@ -59,13 +60,26 @@ class ResponseVerdict:
     predicted: float  #: the model's prediction at the chosen parameters
     simulated: list[float]  #: each verification replicate
     reachable: tuple[float, float]  #: the model's range inside the design box
-    #: 95 % prediction interval of one new run at the chosen parameters (NaN: none)
-    interval: tuple[float, float] = (float("nan"), float("nan"))
     #: why there is no interval, when there is none
     no_interval: str = "no residual degrees of freedom"
     #: what the intervals are made of (:func:`prediction_parts`): the model's prediction,
     #: the t quantile, the residual mean square and the prediction's standard error
+    #: (NaNs: no interval)
     parts: tuple[float, float, float, float] = (float("nan"),) * 4
+
+    def interval_of(self, n: int) -> tuple[float, float]:
+        """The model's 95 % prediction interval of the mean of ``n`` new runs at the
+        chosen parameters, ``centre ± t · sqrt(MSE / n + se²)`` (NaNs: none)."""
+        centre, t, mse, se = self.parts
+        if n < 1 or not np.all(np.isfinite(self.parts)):
+            return float("nan"), float("nan")
+        half = t * float(np.sqrt(mse / n + se * se))
+        return centre - half, centre + half
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        """The 95 % prediction interval of one new run."""
+        return self.interval_of(1)
 
     @property
     def simulated_mean(self) -> float:
@@ -87,15 +101,10 @@ class ResponseVerdict:
 
     @property
     def mean_interval(self) -> tuple[float, float]:
-        """The model's 95 % prediction interval of the mean of the ``n`` verification runs:
-        ``centre ± t · sqrt(MSE / n + se²)`` (one run's interval for ``n`` = 1), so that the
-        check it makes does not fail more often as replicates are added."""
-        centre, t, mse, se = self.parts
-        n = len(self.simulated)
-        if n == 0 or not np.all(np.isfinite(self.parts)):
-            return float("nan"), float("nan")
-        half = t * float(np.sqrt(mse / n + se * se))
-        return centre - half, centre + half
+        """The model's 95 % prediction interval of the mean of the verification runs
+        (:meth:`interval_of` their number), so that the check it makes does not fail more
+        often as replicates are added."""
+        return self.interval_of(len(self.simulated))
 
     @property
     def confirmation(self) -> str:
@@ -409,7 +418,8 @@ def adequacy_warnings(campaign: Campaign, models: dict, profile: bool = True) ->
     return out
 
 
-def prediction_parts(model, corrected, point, level: float = PREDICTION_LEVEL) -> tuple[float, float, float, float]:
+def prediction_parts(model, corrected, point,
+                     level: float = PREDICTION_LEVEL) -> tuple[float, float, float, float]:
     """What the ``level`` prediction intervals at the coded ``point`` are made of:
     ``(centre, t, MSE, se)`` with ``centre = corrected.predict(point)``, ``t`` the
     ``1 - (1 - level)/2`` quantile at the residual degrees of freedom, ``MSE`` the
@@ -429,16 +439,6 @@ def prediction_parts(model, corrected, point, level: float = PREDICTION_LEVEL) -
     se = float(model.prediction_se(point[None, :])[0])
     centre = float(np.asarray(corrected.predict(point[None, :]))[0])
     return centre, float(stats.t.ppf(0.5 + level / 2, df)), float(mse), se
-
-
-def prediction_interval(model, corrected, point, level: float = PREDICTION_LEVEL) -> tuple[float, float]:
-    """The ``level`` prediction interval of one new run at the coded ``point``:
-    ``centre ± t · sqrt(MSE + se²)`` (:func:`prediction_parts`)."""
-    centre, t, mse, se = prediction_parts(model, corrected, point, level)
-    if not np.isfinite(mse):
-        return float("nan"), float("nan")
-    half = t * float(np.sqrt(mse + se * se))
-    return centre - half, centre + half
 
 
 def production_profile(campaign: Campaign) -> str:
@@ -542,8 +542,6 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
             predicted=(float(model.predict(point[None, :])[0]) if on_path is None
                        else float(on_path.get("reading", target.mean))),
             simulated=[], reachable=tuple(map(float, reachable_range(model))),
-            interval=(prediction_interval(loop.models[target.response], model, point) if on_path is None
-                      else (float("nan"), float("nan"))),
             parts=(prediction_parts(loop.models[target.response], model, point) if on_path is None
                    else (float("nan"),) * 4),
             **({} if on_path is None else {"no_interval": f"{'the end of' if on_path.get('limit') else 'a point on'} "

@@ -131,31 +131,24 @@ def _report(args) -> int:
 
 def _as_calibrated(campaign, profile_given: bool):
     """The campaign with the design and production profiles its calibration.json records
-    (so that the report shows what ``calibrate`` said), unless ``--profile`` asks for
-    another design profile or the campaign file changed since; and the words that say so
-    ("" when nothing changed)."""
-    import json
-
-    from demcal.campaign.chain import calibration_path
-    from demcal.campaign.digest import calibrated_from
+    (:func:`demcal.campaign.digest.as_calibrated`), so that the report shows what
+    ``calibrate`` said, unless ``--profile`` asks for another design profile or the
+    campaign file changed since; and the words that say so ("" when nothing changed)."""
+    from demcal.campaign.chain import read_calibration
+    from demcal.campaign.digest import as_calibrated, calibrated_from
+    from demcal.errors import DataError
 
     try:
-        saved = json.loads(calibration_path(campaign).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        saved, _, _ = read_calibration(campaign)
+    except DataError:  # none yet, or unreadable: the report says so itself
         return campaign, ""
-    if not isinstance(saved, dict) or calibrated_from(campaign, saved) is False:
+    if calibrated_from(campaign, saved) is False or (profile_given and saved.get("profile") != campaign.profile):
         return campaign, ""
-    profile, production = saved.get("profile"), saved.get("production")
-    said = []
-    if isinstance(profile, str) and profile != campaign.profile:
-        if profile_given:
-            return campaign, ""  # the runs of another profile than the calibration's
-        campaign = campaign.with_profile(profile)
-        said.append(f"designs at {profile}")
-    if isinstance(production, str) and production != campaign.calibration.production:
-        campaign = campaign.with_production(production)
-        said.append(f"verification at {production}")
-    return campaign, ", ".join(said)
+    replayed = as_calibrated(campaign, saved)
+    said = [f"designs at {replayed.profile}"] if replayed.profile != campaign.profile else []
+    if replayed.calibration.production != campaign.calibration.production:
+        said.append(f"verification at {replayed.calibration.production}")
+    return replayed, ", ".join(said)
 
 
 def _demo(args) -> int:
