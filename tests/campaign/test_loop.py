@@ -753,3 +753,44 @@ def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_n
     html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()
     assert "outside: verified at the end of the path of steepest ascent from box 0: its step 5" in html
     assert "the nearest the test reaches: the end of the path from box 0" in html
+
+
+@pytest.mark.parametrize("outside, verified", [(36.5, True), (40.0, False)])
+def test_a_path_that_falls_from_the_box_edge_lays_no_box(tmp_path, outside, verified):
+    """The response peaks in mu at the box's edge (curvature 125: at mu 0.5), so every
+    step of the path from box 0 reads lower than the box's model there. The classic
+    method follows a path only while it rises: no box is laid beyond the peak. Box 0
+    reaches about 35.65 deg, into the window 36.5 ± 1.5 (not its middle half): solved at
+    its edge and verified there. The window 40 ± 1.5 lies beyond it: out of reach."""
+    campaign, cal = calibrated(tmp_path, outside=outside, curvature=125.0)
+    second = cal.conditions[1]
+    assert [b.index for b in second.loop.boxes] == [0]
+    path = [s for s in second.loop.history if s.stage == "path"]
+    assert len(path) == 1 and "design" not in [s.stage for s in second.loop.history]
+    if verified:
+        assert second.loop.status == "verified", second.loop.reason
+        assert any("no path leads on from it, so box 0 reaches" in n and "solved at the box's edge" in n
+                   for n in second.notes), second.notes
+        assert second.chosen["particle.static_friction"] == pytest.approx(0.5, abs=0.02)
+        (verdict,) = second.verdicts
+        assert abs(verdict.simulated_mean - outside) <= 1.5
+    else:
+        assert second.loop.status == "out of reach", second.loop.reason
+        assert "reads lower at every step beyond the box" in second.loop.reason
+        assert "the response peaks in box 0" in second.loop.reason
+    again = calibrate(campaign, simulate=False, progress=False).conditions[1]  # replayed: the same
+    assert again.loop.status == second.loop.status and again.chosen == second.chosen
+
+
+def test_a_path_that_peaks_before_its_end_lays_the_box_at_its_peak(tmp_path, monkeypatch):
+    """The response peaks in mu at 0.71 (curvature 40): the path from box 0 toward 39.5
+    reads 37.18, 37.98, 37.31 at steps 2-4, crossing nothing, outside the window. The
+    new box goes around step 3, its highest reading, not around step 4."""
+    campaign, cal = calibrated(tmp_path, outside=39.5, curvature=40.0, hard="ac")
+    second = cal.conditions[1]
+    stages = [s.stage for s in second.loop.history]
+    assert stages[:2] == ["path", "design"], stages
+    moved = second.loop.boxes[1]
+    assert "crossed nothing and read furthest toward it at step 3" in moved.reason, moved.reason
+    centre_mu = 0.5 * (moved.low[1] + moved.high[1])
+    assert centre_mu == pytest.approx(0.7, abs=0.02)
