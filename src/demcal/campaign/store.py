@@ -27,259 +27,38 @@ Faults: an existing store must pass ``PRAGMA quick_check`` before anything touch
 it, and every SQLite or file-system error (a damaged file, a folder where the file
 should be, a read-only folder, a full disk, a lock held too long) is raised as one
 :class:`StoreError` sentence that names the file and the fix.
+
+The store's tables and run rows are in :mod:`demcal.campaign.records`, its error
+sentences in :mod:`demcal.campaign.faults`, the run folders' temporary names and
+moves in :mod:`demcal.campaign.folders`, and :func:`held_signals` in
+:mod:`demcal.campaign.signals`; every public name of theirs is importable from here.
 """
 
 from __future__ import annotations
 
 import contextlib
 import errno
-import hashlib
 import json
 import math
 import os
-import shutil
-import signal
 import socket
 import sqlite3
-import threading
 import time
 import uuid
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Iterator, Mapping, Sequence
 
+from demcal.campaign.faults import BUSY_TIMEOUT_S, StoreError, _writable, store_error
+from demcal.campaign.folders import _Swap, publish_dir, temp_dir, temp_name, write_json_atomic  # noqa: F401
+from demcal.campaign.records import _RUN_COLUMNS, _SCHEMA, STATUSES, RunRecord, RunSpec, _key_filter, _record
+from demcal.campaign.records import run_key  # noqa: F401
+from demcal.campaign.signals import STOP_SIGNALS, held_signals  # noqa: F401
 from demcal.errors import DataError
-
-STATUSES = ("pending", "running", "done", "failed")
-
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS campaign (
-    id INTEGER PRIMARY KEY CHECK (id = 1),
-    name TEXT NOT NULL,
-    source TEXT NOT NULL,
-    created_at REAL NOT NULL,
-    updated_at REAL NOT NULL,
-    demcal_version TEXT NOT NULL,
-    path TEXT
-);
-CREATE TABLE IF NOT EXISTS runs (
-    id INTEGER PRIMARY KEY,
-    key TEXT NOT NULL UNIQUE,
-    kind TEXT NOT NULL,
-    label TEXT NOT NULL,
-    test TEXT NOT NULL,
-    profile TEXT NOT NULL,
-    parameters TEXT NOT NULL,
-    settings TEXT NOT NULL,
-    seed INTEGER NOT NULL,
-    status TEXT NOT NULL DEFAULT 'pending'
-        CHECK (status IN ('pending', 'running', 'done', 'failed')),
-    responses TEXT,
-    result TEXT,
-    artifacts_dir TEXT,
-    attempts INTEGER NOT NULL DEFAULT 0,
-    created_at REAL NOT NULL,
-    started_at REAL,
-    finished_at REAL,
-    wall_s REAL,
-    engine_version TEXT,
-    error TEXT,
-    owner TEXT,
-    pid INTEGER,
-    host TEXT,
-    heartbeat REAL
-);
-CREATE INDEX IF NOT EXISTS runs_status ON runs (status);
-"""
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    """One planned simulation: what to run and under which label."""
-
-    kind: str  #: "design" or "verification"
-    label: str  #: e.g. "design 7" or "verify 6.26 % #2"
-    test: str
-    profile: str
-    parameters: Mapping[str, float]  #: the factor settings of this point
-    settings: Mapping[str, Any]  #: every override passed to the experiment
-    seed: int
-
-    @property
-    def key(self) -> str:
-        return run_key(self.test, self.profile, self.settings, self.seed)
-
-    @property
-    def dirname(self) -> str:
-        """The run's artifact folder under ``runs/``."""
-        slug = "".join(c if c.isalnum() else "-" for c in self.label).strip("-").lower()
-        return f"{slug}-{self.key[:10]}"
-
-
-@dataclass(frozen=True)
-class RunRecord:
-    """One row of the runs table."""
-
-    id: int
-    key: str
-    kind: str
-    label: str
-    test: str
-    profile: str
-    parameters: dict[str, float]
-    settings: dict[str, Any]
-    seed: int
-    status: str
-    responses: dict[str, float]
-    result: dict[str, Any]
-    artifacts_dir: str | None
-    attempts: int
-    started_at: float | None
-    finished_at: float | None
-    wall_s: float | None
-    engine_version: str | None
-    error: str | None
-    owner: str | None
-    pid: int | None
-    host: str | None
-    heartbeat: float | None
-
-
-def run_key(test: str, profile: str, settings: Mapping[str, Any], seed: int) -> str:
-    """SHA-256 of the canonical JSON of what determines a run's result."""
-    blob = json.dumps({"test": test, "profile": profile, "settings": _canonical(settings), "seed": int(seed)},
-                      sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(blob.encode()).hexdigest()
-
-
-def _canonical(settings: Mapping[str, Any]) -> dict[str, Any]:
-    out = {}
-    for key, value in settings.items():
-        if isinstance(value, float):
-            value = float(f"{value:.12g}")  # 0.1 + 0.2 and 0.3 are one point
-        out[key] = value
-    return out
-
-
-class StoreError(DataError):
-    """The store cannot be used: damaged, a folder, read-only, on a full disk, locked."""
-
-
-#: How long a write waits for another runner's transaction [s].
-BUSY_TIMEOUT_S = 60.0
 
 #: Owners of the stores open in this process. A claim made from this process by an
 #: owner not in here was left by a store that closed without handing it back (its
 #: write failed on a full disk), so it is as stale as a dead process's claim.
 _OPEN_OWNERS: set[str] = set()
-
-
-
-def _schema_columns() -> frozenset[str]:
-    """The columns a store's ``runs`` table has (a file of another program lacks them)."""
-    db = sqlite3.connect(":memory:")
-    try:
-        db.executescript(_SCHEMA)
-        return frozenset(row[1] for row in db.execute("PRAGMA table_info(runs)"))
-    finally:
-        db.close()
-
-
-_RUN_COLUMNS = _schema_columns()
-
-
-def _fault(exc: BaseException) -> str:
-    """What an SQLite or file-system error means for the user, in one word."""
-    if isinstance(exc, OSError):
-        code = exc.errno
-        if code in (errno.ENOSPC, errno.EDQUOT):
-            return "full"
-        if code in (errno.EROFS, errno.EACCES, errno.EPERM):
-            return "readonly"
-        if code == errno.EISDIR:
-            return "folder"
-        return "io" if code == errno.EIO else "other"
-    name = getattr(exc, "sqlite_errorname", None) or ""
-    text = str(exc).lower()
-    if name.startswith("SQLITE_FULL") or "disk is full" in text:
-        return "full"
-    if name.startswith(("SQLITE_CORRUPT", "SQLITE_NOTADB")) or "malformed" in text or "not a database" in text:
-        return "damaged"
-    if name.startswith(("SQLITE_READONLY", "SQLITE_PERM")) or "readonly" in text or "read-only" in text:
-        return "readonly"
-    if name.startswith(("SQLITE_BUSY", "SQLITE_LOCKED")) or "locked" in text:
-        return "locked"
-    if name.startswith("SQLITE_IOERR") or "disk i/o error" in text:
-        return "io"
-    if name.startswith("SQLITE_CANTOPEN") or "unable to open" in text:
-        return "cantopen"
-    return "other"
-
-
-def _disk_nearly_full(folder: Path) -> bool:
-    try:
-        return shutil.disk_usage(folder).free < 1 << 20
-    except OSError:
-        return False
-
-
-def _writable(path: Path) -> bool:
-    """Whether this process may write ``path`` (or create it: its nearest existing folder)."""
-    while not path.exists() and path.parent != path:
-        path = path.parent
-    return os.access(path, os.W_OK)
-
-
-def _reason(exc: BaseException) -> str:
-    text = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-    return " ".join(text.split()).rstrip(".") or type(exc).__name__
-
-
-def store_error(exc: BaseException, path: str | Path, what: str = "the store") -> StoreError:
-    """One sentence for an SQLite or file-system error of ``what`` at ``path``, with the fix.
-
-    ``what`` names the thing (``"the store"``, ``"the run folders"``); ``path`` is the
-    file or folder the user has to look at.
-    """
-    path = Path(path)
-    blocker = next((p for p in path.parents if p.exists() and not p.is_dir()), None)
-    if blocker is not None:  # the work folder (or a folder above it) is a file
-        return StoreError(f"cannot write to {blocker}: {blocker} is a file, not a folder; choose another work "
-                          f"folder ([campaign] workdir) or move the file away.")
-    folder = path if path.is_dir() and what != "the store" else path.parent
-    fault = _fault(exc)
-    if fault in ("io", "other", "cantopen") and _disk_nearly_full(folder):
-        fault = "full"
-    if fault == "cantopen":
-        fault = "folder" if path.is_dir() else "readonly" if not _writable(folder) else "other"
-    if fault == "full":
-        return StoreError(f"no space left on the disk that holds {what} {path}; free some space and "
-                          f"run again (finished runs are kept).")
-    if fault == "damaged":
-        return StoreError(f"{what} {path} is damaged ({_reason(exc)}) and was left as it is; restore it "
-                          f"from a backup, or move it away to start a new store (its runs are then "
-                          f"simulated again).")
-    if fault == "readonly":
-        if not _writable(folder):
-            while not folder.exists() and folder.parent != folder:
-                folder = folder.parent
-            where = f"the folder {folder} is read-only"
-        elif path.exists() and not _writable(path):
-            where = f"the file {path} is read-only"
-        else:
-            where = f"{folder} is read-only to this process"
-        return StoreError(f"cannot write {what} {path}: {where}; make it writable or choose another "
-                          f"work folder.")
-    if fault == "folder":
-        return StoreError(f"{path} is a folder, not a store file; move it away or choose another work folder.")
-    if fault == "locked":
-        return StoreError(f"{what} {path} stayed locked by another process for {BUSY_TIMEOUT_S:g} s; let the "
-                          f"other demcal command finish (or stop it), then run again.")
-    if fault == "io":
-        return StoreError(f"cannot read or write {what} {path} (disk I/O error); check the disk and the "
-                          f"folder, then run again.")
-    return StoreError(f"cannot use {what} {path} ({_reason(exc)}); check the file and its folder, "
-                      f"or choose another work folder.")
 
 
 class Store:
@@ -663,30 +442,6 @@ class Store:
             return self.db.execute("PRAGMA integrity_check").fetchone()[0]
 
 
-def _key_filter(keys: Sequence[str] | None) -> tuple[str, tuple]:
-    if keys is None:
-        return "", ()
-    keys = tuple(keys)
-    if not keys:
-        return " AND 0", ()
-    return f" AND key IN ({','.join('?' * len(keys))})", keys
-
-
-def _record(row: sqlite3.Row) -> RunRecord:
-    def load(text, default):
-        return json.loads(text) if text else default
-
-    return RunRecord(
-        id=row["id"], key=row["key"], kind=row["kind"], label=row["label"], test=row["test"],
-        profile=row["profile"], parameters=load(row["parameters"], {}), settings=load(row["settings"], {}),
-        seed=row["seed"], status=row["status"], responses=load(row["responses"], {}),
-        result=load(row["result"], {}), artifacts_dir=row["artifacts_dir"], attempts=row["attempts"],
-        started_at=row["started_at"], finished_at=row["finished_at"], wall_s=row["wall_s"],
-        engine_version=row["engine_version"], error=row["error"], owner=row["owner"], pid=row["pid"],
-        host=row["host"], heartbeat=row["heartbeat"],
-    )
-
-
 def _pid_alive(pid: int | None) -> bool:
     if not pid:
         return False
@@ -702,112 +457,6 @@ def _pid_alive(pid: int | None) -> bool:
             return stat.read().rsplit(")", 1)[1].split()[0] != "Z"
     except OSError:
         return True
-
-
-def temp_dir(runs_dir: Path, name: str) -> Path:
-    """A fresh temporary folder for a run's artifacts, next to its final place."""
-    path = runs_dir / temp_name(name)
-    path.mkdir(parents=True)
-    return path
-
-
-#: The signals that stop a command: Ctrl-C, ``kill`` (``timeout``, Slurm, systemd), a closed terminal.
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-
-
-@contextlib.contextmanager
-def held_signals() -> Iterator[None]:
-    """Hold Ctrl-C, SIGTERM and SIGHUP back while a short critical section runs.
-
-    A signal that arrives inside the block is noted instead of acted on; at its end
-    the handlers in place before are restored and each noted signal is raised again,
-    once, so the command then stops as it would have (``KeyboardInterrupt``, or the
-    signal's default action where nothing handles it). The runner's clean-up and the
-    store's commit of a run use it: a second signal during the clean-up of the first
-    cannot stop the hand-back of a claim half way and leave its row ``running`` or
-    its temporary folder behind. Only the main thread may change handlers (elsewhere
-    the block runs unguarded); an ignored signal (``nohup``) or one handled outside
-    Python is left alone. Blocks nest.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    noted: list[int] = []
-    previous: dict[int, Any] = {}
-    try:
-        for signum in STOP_SIGNALS:
-            handler = signal.getsignal(signum)
-            if handler is None or handler == signal.SIG_IGN:
-                continue
-            previous[signum] = handler
-            signal.signal(signum, lambda number, _frame: noted.append(number))
-        yield
-    finally:
-        stop = None
-        for signum, handler in previous.items():
-            while True:  # a signal arriving between two restores: restore the others before it acts
-                try:
-                    signal.signal(signum, handler)
-                    break
-                except BaseException as exc:  # noqa: BLE001 - raised once every handler is back
-                    stop = stop or exc
-        for signum in dict.fromkeys(noted):
-            signal.raise_signal(signum)
-        if stop is not None:
-            raise stop
-
-
-def temp_name(name: str) -> str:
-    """The name of a new temporary folder for run folder ``name`` (``.<name>.tmp-<hex>``)."""
-    return f".{name}.tmp-{uuid.uuid4().hex[:8]}"
-
-
-class _Swap:
-    """Folder ``tmp`` moved into ``final``'s place; the folder it replaces is kept aside
-    until :meth:`keep`, so that :meth:`undo` can put everything back."""
-
-    def __init__(self, tmp: Path, final: Path):
-        self.tmp, self.final, self.old = Path(tmp), Path(final), None
-        if self.final.exists():
-            self.old = self.final.with_name(f".{self.final.name}.old-{uuid.uuid4().hex[:8]}")
-            os.replace(self.final, self.old)
-        try:
-            os.replace(self.tmp, self.final)
-        except BaseException:
-            if self.old is not None:
-                os.replace(self.old, self.final)
-            raise
-
-    def undo(self) -> None:
-        with contextlib.suppress(OSError):  # a later runner reruns the run and publishes again
-            os.replace(self.final, self.tmp)
-            if self.old is not None:
-                os.replace(self.old, self.final)
-
-    def keep(self) -> None:
-        if self.old is not None:
-            shutil.rmtree(self.old, ignore_errors=True)
-
-
-def publish_dir(tmp: Path, final: Path) -> None:
-    """Move a completed artifact folder into place (replacing an older one)."""
-    _Swap(tmp, final).keep()
-
-
-def write_json_atomic(path: Path, data: Any) -> None:
-    """Write JSON to ``path`` through a temporary file and a rename."""
-    from demcal._files import write_atomic
-
-    # a full disk: neither a partial file nor a 0-byte temporary stays
-    write_atomic(path, json.dumps(data, indent=2, sort_keys=True, default=_json_default))
-
-
-def _json_default(value: Any) -> Any:
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
 def finite_responses(responses: Mapping[str, Any]) -> str | None:
