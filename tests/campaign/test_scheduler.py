@@ -31,7 +31,7 @@ def _one_sentence(capsys) -> str:
 @pytest.fixture
 def fast_connect(monkeypatch):
     """Connection attempts give up after 1 s instead of 20 s."""
-    monkeypatch.setattr("demcal.campaign.executors.CONNECT_TIMEOUT_S", 1.0, raising=False)
+    monkeypatch.setattr("demcal.campaign.cluster.CONNECT_TIMEOUT_S", 1.0)
 
 
 class _Server:
