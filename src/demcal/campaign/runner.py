@@ -400,13 +400,7 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                 spec = specs[record.key]
                 tmp = temp_name(spec.dirname)
                 folders[record.id] = tmp  # before its worker can make it: the clean-up knows it
-                task = {
-                    "test": spec.test, "profile": spec.profile, "settings": dict(spec.settings),
-                    "seed": spec.seed, "plugins": list(campaign.plugins), "label": spec.label,
-                    "runs_dir": str(runs_dir), "name": spec.dirname, "tmp": tmp,
-                    "backend": campaign.executor.backend,
-                }
-                in_flight[executor.submit(task)] = (record, tmp)
+                in_flight[executor.submit(_task(campaign, spec, runs_dir, tmp))] = (record, tmp)
             if not in_flight:
                 if fatal is not None:
                     raise StoreError(fatal)
@@ -419,9 +413,7 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                     if fatal is None and len(in_flight) > 1 and progress:
                         bar.write(f"stopping after the {len(in_flight) - 1} runs in flight: {outcome['fatal']}")
                     fatal = fatal or outcome["fatal"]
-                    with contextlib.suppress(StoreError):  # on a full disk it stays claimed by this runner,
-                        store.release([record.id])       # which is gone when it exits
-                    shutil.rmtree(runs_dir / tmp, ignore_errors=True)
+                    _hand_back(store, record, runs_dir / tmp)
                     del in_flight[handle], folders[record.id]
                     continue
                 ok = _record_outcome(store, record, specs[record.key], tmp, outcome, runs_dir, engine_version)
@@ -437,25 +429,51 @@ def _drain(store: Store, specs: dict[str, RunSpec], executor, summary: RunSummar
                 reclaim()
                 next_beat = time.monotonic() + beat_s
     except BaseException:
-        # Ctrl-C, SIGTERM, SIGHUP, a full disk or an error of the runner itself: stop the
-        # workers, hand every claim back at once so the next runner need not wait for
-        # them to go stale, and leave no half-written folder -- with further signals held
-        # back until that is done. Every claim of this runner, not only those in flight:
-        # an interrupt may come between a claim and its task. On a full disk even that
-        # write may fail: the claims then stay with this runner, which is gone once it
-        # exits, and the next one takes them back (reclaim_stale).
-        with held_signals():
-            try:
-                executor.close(cancel=True)
-            finally:
-                with contextlib.suppress(StoreError):
-                    store.release()
-                for tmp in folders.values():
-                    shutil.rmtree(runs_dir / tmp, ignore_errors=True)
+        # Ctrl-C, SIGTERM, SIGHUP, a full disk or an error of the runner itself
+        _stop(store, executor, runs_dir, folders)
         raise
     finally:
         bar.close()
         summary.elapsed_s = time.perf_counter() - start
+
+
+def _task(campaign: Campaign, spec: RunSpec, runs_dir: Path, tmp: str) -> dict[str, Any]:
+    """The task an executor runs for ``spec`` (:func:`demcal.campaign.task.execute`),
+    its artifacts written to ``runs_dir / tmp``."""
+    return {
+        "test": spec.test, "profile": spec.profile, "settings": dict(spec.settings),
+        "seed": spec.seed, "plugins": list(campaign.plugins), "label": spec.label,
+        "runs_dir": str(runs_dir), "name": spec.dirname, "tmp": tmp,
+        "backend": campaign.executor.backend,
+    }
+
+
+def _hand_back(store: Store, record: RunRecord, folder: Path) -> None:
+    """Put back to pending a run whose worker met a full disk or a read-only folder, and
+    remove its temporary ``folder``."""
+    with contextlib.suppress(StoreError):  # on a full disk it stays claimed by this runner,
+        store.release([record.id])       # which is gone when it exits
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+def _stop(store: Store, executor, runs_dir: Path, folders: dict[int, str]) -> None:
+    """Stop the workers, hand every claim back at once so the next runner need not wait
+    for them to go stale, and leave no half-written folder (``folders``: run id ->
+    temporary folder name) -- with further signals held back until that is done.
+
+    Every claim of this runner, not only those in flight: an interrupt may come between
+    a claim and its task. On a full disk even that write may fail: the claims then stay
+    with this runner, which is gone once it exits, and the next one takes them back
+    (reclaim_stale).
+    """
+    with held_signals():
+        try:
+            executor.close(cancel=True)
+        finally:
+            with contextlib.suppress(StoreError):
+                store.release()
+            for tmp in folders.values():
+                shutil.rmtree(runs_dir / tmp, ignore_errors=True)
 
 
 def _record_outcome(store: Store, record: RunRecord, spec: RunSpec, tmp: str, outcome: dict[str, Any],
