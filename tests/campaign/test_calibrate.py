@@ -248,7 +248,7 @@ def test_tiny_profile_warns_in_the_cli_the_report_and_the_json(calibrated, repor
     assert any(line.startswith("warning: profile 'tiny' is a smoke test; not a calibration")
                for line in describe(cal).splitlines())
     html = report_path.read_text()
-    assert '<p class="warning">profile &#x27;tiny&#x27; is a smoke test; not a calibration' in html
+    assert '<p class="warning">profile &#39;tiny&#39; is a smoke test; not a calibration' in html
     assert ".warning{" in html
     assert tiny[0] in json.loads((campaign.workdir / "calibration.json").read_text())["warnings"]
 

@@ -126,7 +126,7 @@ def test_figure_files_at_300_dpi_and_labelled(tmp_path):
     with Image.open(tmp_path / "figures" / "surf.png") as im:
         assert round(im.info["dpi"][0]) == 300
         file_width = im.size[0]
-    embedded = base64.b64decode(rep.blocks[-1].split("base64,")[1].split('"')[0])
+    embedded = base64.b64decode(rep.blocks[-1]["src"].split("base64,")[1])
     with Image.open(io.BytesIO(embedded)) as im:
         assert im.size[0] * 300 == pytest.approx(file_width * 110, rel=0.01)
     assert (tmp_path / "figures" / "surf.svg").exists()

@@ -1,13 +1,30 @@
-"""The campaign report: one self-contained HTML file plus CSV/JSON of every table.
+"""The campaign report: one HTML page, its figures as PNG files, CSV/JSON of every table.
 
-For each campaign (the layout of the reference paper, IJABE 2020; captions name a
+The page answers first. Its first screen holds, per campaign and condition
+(:func:`_summary`): the calibrated values with the ranges of their solution set, the
+verification verdict (the lab's mean ± sd against the simulated mean ± its 95 %
+interval, with n), the simulations spent, the warnings on the model's adequacy
+(:func:`demcal.campaign.calibrate.adequacy_warnings`), and where the material card is
+(calibration.json, the ``demcal export`` command). A table of contents follows, then
+for each campaign (the layout of the reference paper, IJABE 2020; captions name a
 publication only where the campaign file's ``[report] captions`` say which of its tables
 a report table reproduces, and columns that would be empty are left out):
 
-* warnings on the model's adequacy first (:func:`demcal.campaign.calibrate.adequacy_warnings`);
-* lab samples and targets (Table 1), factors and levels (Tables 3, 7);
-* where a campaign fixes settings per condition (``[conditions.settings]``, ``from_campaign``):
-  each condition's fixed settings with their values and where each came from;
+* lab samples and targets (Table 1);
+* calibrated parameters per condition (Tables 6, 10) with the ranges of the
+  solution set, next to the published (``[conditions.reference]``) values, with the
+  desirability ramps and the overlay plot of the lab window;
+* verification: simulated against measured, relative error, inside the lab spread
+  or not, inside the model's 95 % prediction interval or not -- and plainly why not;
+  the calibration loop's boxes and steps;
+* the calibrated material's complete parameter set per condition, each value's source
+  (calibrated, fixed by the campaign, default), as the material card gives it;
+* heap images simulated next to measured (Fig. 7), when the runs and photos exist: the
+  verification run's final spheres in 3-D, its silhouette with the fitted flank lines,
+  and the lab photo with the outline and flank lines demcal measures in it;
+* factors and levels (Tables 3, 7); where a campaign fixes settings per condition
+  (``[conditions.settings]``, ``from_campaign``): each condition's fixed settings with
+  their values and where each came from;
 * the design with its simulated results (Tables 4, 8) and the run statistics (one design
   per distinct set of conditions' fixed settings, each with its own model);
 * fit summary, ANOVA (Tables 5, 9), fit statistics, coefficients, the model
@@ -16,26 +33,17 @@ a report table reproduces, and columns that would be empty are left out):
 * Design-Expert's diagnostics of each model: normal plot, externally studentized
   residuals against predicted and run order, Cook's distance, Box-Cox, interaction
   plots (:mod:`demcal.report.diagnostics`);
-* calibrated parameters per condition (Tables 6, 10) with the ranges of the
-  solution set, next to the published (``[conditions.reference]``) values, with the
-  desirability ramps and the overlay plot of the lab window;
-* verification: simulated against measured, relative error, inside the lab spread
-  or not, inside the model's 95 % prediction interval or not -- and plainly why not;
-* the calibrated material's complete parameter set per condition, each value's source
-  (calibrated, fixed by the campaign, default), as the material card gives it;
-* heap images simulated next to measured (Fig. 7), when the runs and photos exist: the
-  verification run's final spheres in 3-D, its silhouette with the fitted flank lines,
-  and the lab photo with the outline and flank lines demcal measures in it;
 
-then a section that re-analyses the paper's own tables. Figures are embedded as
-base64 PNG (:class:`demcal.report.html.HtmlReport`).
+then a section that re-analyses the paper's own tables. Headings and columns name
+responses and factors by their labels and units (``[[responses]] label, unit``,
+``[[factors]] label``). The page is rendered by the jinja2 templates of
+:mod:`demcal.report.html`; each figure is rendered once, to ``figures/<name>.png``.
 """
 
 from __future__ import annotations
 
-import base64
-import html
 import json
+import os
 import shlex
 from pathlib import Path
 from typing import Sequence
@@ -63,8 +71,9 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
     out : report folder; default ``<workdir>/report`` of the first campaign.
     calibrations : results of :func:`demcal.campaign.calibrate.calibrate`; recomputed
         from the store (nothing simulated) when omitted.
-    figure_files : also write each figure as ``figures/<name>.png`` and ``.svg``
-        (they are always embedded in the HTML).
+    figure_files : write each figure once as ``figures/<name>.png`` and refer to it from
+        the page (the folder is the report); False: embed each in the page instead (one
+        file to mail).
     """
     if isinstance(campaigns, Campaign):
         campaigns = [campaigns]
@@ -75,13 +84,146 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
     out = Path(out) if out is not None else campaigns[0].workdir / "report"
     report = HtmlReport(title or (campaigns[0].title if len(campaigns) == 1 else
                                   "DEM contact parameter calibration"), out,
-                        figure_formats=("png", "svg") if figure_files else ())
-    if len(campaigns) > 1:
-        report.bullets([f"{c.title} ({c.path.name}, {c.test}, profile {c.profile})" for c in campaigns])
+                        figure_formats=(), link_figures=figure_files)
+    several = len(campaigns) > 1
+    report.block("summary", campaigns=[_summary(report, cal, several) for cal in calibrations])
+    report.contents()
     for calibration in calibrations:
-        _campaign_sections(report, calibration, prefix=calibration.campaign.name if len(campaigns) > 1 else "")
+        _campaign_sections(report, calibration, prefix=calibration.campaign.name if several else "")
     _paper_sections(report, campaigns, references)
     return report.write()
+
+
+# --------------------------------------------------------------------------- the answer first
+
+
+def _summary(report: HtmlReport, cal: Calibration, several: bool) -> dict:
+    """What the first screen says of one campaign (template ``summary.html.j2``): per
+    condition the calibrated values with their solution-set ranges, the verdict and the
+    runs; the campaign's facts, warnings and material card."""
+    c = cal.campaign
+    responses = sorted({v.response for r in cal.conditions for v in r.verdicts}, key=str)
+    one = responses[0] if len(responses) == 1 else None
+    conditions = []
+    for result in cal.conditions:
+        values = []
+        for f in c.factors:
+            value = result.chosen.get(f.parameter)
+            lo, hi = result.factor_ranges.get(f.parameter, (np.nan, np.nan))
+            values.append({"value": "" if value is None else f"{value:.4g}",
+                           "range": f"{lo:.4g} to {hi:.4g}" if np.isfinite(lo) and np.isfinite(hi) else ""})
+        conditions.append({"name": result.condition.name,
+                           "label": result.condition.label if result.condition.label != result.condition.name else "",
+                           "values": values, "verdicts": [_verdict(c, result, v, one is None)
+                                                          for v in result.verdicts],
+                           "status": _loop_words(result), "runs": _condition_runs(result)})
+    table = pd.concat([design.table for design in cal.designs])
+    done = int((table["status"] == "done").sum())
+    spent = _runs_spent(cal)
+    facts = (f"Virtual test {c.test}, profile {c.profile}; campaign file {c.path.name}; {done} of {len(table)} "
+             "design runs done" + ("; simulations spent: " + ", ".join(f"{count} {what}" for what, count in spent)
+                                   + f", {sum(count for _, count in spent)} in all" if spent else "") + ".")
+    card = c.workdir / "calibration.json"
+    links = []
+    if card.is_file():
+        links.append({"href": Path(os.path.relpath(card, report.out_dir)).as_posix(), "text": "calibration.json"})
+    links.append({"href": "#" + _anchor(_name(c.name if several else "", "material")),
+                  "text": "every parameter (below)"})
+    return {"id": report.anchor(f"summary {c.name}"),
+            "heading": f"{c.title}: calibrated values" if several else "Calibrated values",
+            "factor_headings": [f.label for f in c.factors],
+            "verdict_heading": ("Verification: " + _response_heading(c, one)) if one else "Verification",
+            "conditions": conditions, "facts": facts, "warnings": list(cal.warnings), "links": links,
+            "export_text": "the card for a DEM code (json, liggghts or edem):",
+            "export": _command(c, "export").replace(" --profile " + shlex.quote(str(c.profile)), "")
+            + f" --format json -o {shlex.quote(c.name + '-card.json')}"}
+
+
+def _anchor(name: str) -> str:
+    """The id of a section the summary links to (``name``: its file-name stem)."""
+    from demcal.report.html import _slug
+
+    return "s-" + _slug(name).lower()
+
+
+def _verdict(c: Campaign, result, v, labelled: bool) -> dict:
+    """One response's verdict: lab mean ± sd, simulated mean ± its 95 % interval, n."""
+    lab = f"{v.target:g} ± {v.lab_sd:g}" if v.lab_sd is not None else f"{v.target:g}"
+    n = len(v.simulated)
+    half = _simulated_half_width(result, v)
+    simulated = (f"{v.simulated_mean:.2f} ± {half:.2f} (95 %)" if np.isfinite(half)
+                 else f"{v.simulated_mean:.2f}") if n else ""
+    if result.loop is not None:
+        words, ok = result.loop.status, result.loop.status == "verified"
+    elif not n:
+        words, ok = f"not simulated yet (0/{len(result.specs)})", False
+    elif v.within_lab_sd is None:
+        words, ok = "no lab sd to judge by", False
+    else:
+        ok = bool(v.within_lab_sd)
+        words = "inside the lab's mean ± sd" if ok else "outside the lab's mean ± sd"
+    return {"label": _response_heading(c, v.response) if labelled else "", "lab": lab, "simulated": simulated,
+            "n": n, "words": words, "ok": ok}
+
+
+def _simulated_half_width(result, v) -> float:
+    """Half-width of the 95 % interval of the simulated mean: the loop's (its seed sd
+    pooled over the production points) when a loop verified it, else the replicates' own
+    t interval (NaN with fewer than two)."""
+    from scipy import stats
+
+    if result.loop is not None and v.simulated:
+        for step in reversed(result.loop.history):
+            if (step.stage == "production" and step.half_width is not None and step.simulated is not None
+                    and np.isclose(step.simulated, v.simulated_mean)):
+                return float(step.half_width)
+    n = len(v.simulated)
+    if n < 2:
+        return float("nan")
+    return float(stats.t.ppf(0.975, n - 1) * v.simulated_sd / np.sqrt(n))
+
+
+def _loop_words(result) -> str:
+    loop = result.loop
+    if loop is None:
+        return ""
+    return f"loop {loop.status}: {loop.reason}" if loop.status != "verified" else ""
+
+
+def _condition_runs(result) -> str:
+    """The runs one condition spent beyond the campaign's design."""
+    if result.loop is not None:
+        kinds = result.loop.runs_by_stage()
+        parts = [f"{kinds[k]} {k}" for k in ("path", "design") if kinds.get(k)]
+        return ", ".join(parts + [f"{len(result.verification)} production"])
+    done = sum(r.status == "done" for r in result.verification)
+    return f"{done}/{len(result.specs)} verification"
+
+
+def _response_heading(c: Campaign, name: str) -> str:
+    """``Angle of repose β [°]``: the campaign's label and unit of a response (read from
+    its name when the campaign gives none)."""
+    from demcal.report.figures import response_label
+
+    response = next((r for r in c.responses if r.name == name), None)
+    label = response.label if response is not None and response.label else None
+    unit = response.unit if response is not None and response.unit else None
+    return response_label(name, label, unit)
+
+
+def _common_unit(c: Campaign, names) -> str | None:
+    """The unit all of the responses ``names`` share, else None."""
+    units = {_response_unit(c, name) for name in names}
+    return units.pop() if len(units) == 1 else None
+
+
+def _response_unit(c: Campaign, name: str) -> str | None:
+    heading = _response_heading(c, name)
+    return heading[heading.rindex("[") + 1:-1] if heading.endswith("]") else None
+
+
+def _with_unit(text: str, unit: str | None) -> str:
+    return f"{text} [{unit}]" if unit else text
 
 
 # --------------------------------------------------------------------------- sections
@@ -126,16 +268,21 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
     if c.plugins:
         report.paragraph(f"Plugins named by the campaign file: {', '.join(c.plugins)} (imported by `demcal run` and "
                          "`demcal calibrate` to register the virtual test; `demcal report` imports none).")
-    for warning in cal.warnings:
-        report.warning(warning)
     if len(done) < len(table):
         report.note(f"{len(table) - len(done)} of {len(table)} design runs are not done, so the model is fitted "
                     f"to {len(done)}: run `{_command(c, 'run')}`"
                     + (" (add --retry-failed for the failed ones)" if (table["status"] == "failed").any() else "")
                     + f", then `{_command(c, 'calibrate')}`.")
 
+    # the answer: targets, calibrated values, their verification, the material
     _lab_section(report, cal, n)
+    _calibration_sections(report, cal, n)
+    _verification_sections(report, cal, n)
+    _loop_sections(report, cal, n)
+    _parameters_section(report, cal, n)
+    _images_section(report, cal, n)
 
+    # how it was found: the design, its models, their diagnostics
     report.section("Factors and levels", 3)
     levels = pd.DataFrame(
         [{"factor": f.name, "parameter": f.parameter, "label": f.description, "units": f.units,
@@ -156,12 +303,6 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
         _benchmark_section(report, design.campaign, m)
         for response in design.models:
             _model_sections(report, c, design, response, m)
-
-    _calibration_sections(report, cal, n)
-    _parameters_section(report, cal, n)
-    _loop_sections(report, cal, n)
-    _verification_sections(report, cal, n)
-    _images_section(report, cal, n)
     for note in cal.notes:
         if note not in cal.warnings:
             report.note(note)
@@ -183,8 +324,11 @@ def _lab_section(report: HtmlReport, cal: Calibration, n) -> None:
             s = record.sieve
             for lo, hi, m in zip(s.lower_mm, s.upper_mm, s.mass_percent):
                 sieve_rows.append({"sample": record.name, "class mm": f"[{lo:g}, {hi:g})", "mass %": m})
+    unit = _common_unit(c, {row["response"] for row in rows})
     report.table(_drop_empty(pd.DataFrame(rows).set_index("condition")), n("targets"),
-                 caption="Lab samples and measured targets" + _cite(c, "targets"))
+                 caption="Lab samples and measured targets" + _cite(c, "targets"),
+                 headings={"target": _with_unit("target", unit), "lab sd": _with_unit("lab sd", unit)},
+                 values={"response": {r: _response_heading(c, r) for r in c.response_names}})
     if sieve_rows:
         sieve = pd.DataFrame(sieve_rows).pivot(index="class mm", columns="sample", values="mass %")
         sieve = sieve.reindex([r["class mm"] for r in sieve_rows if r["sample"] == sieve_rows[0]["sample"]])
@@ -218,8 +362,13 @@ def _design_section(report: HtmlReport, c: Campaign, table: pd.DataFrame, n) -> 
         cols.insert(1, "replicate")
     shown = table[cols].set_index("run").rename(
         columns={f.parameter: f"{f.name} actual" for f in c.factors})
+    headings = {f"{f.name} actual": f.label for f in c.factors}
+    headings.update({f.name: f"{f.name} coded" for f in c.factors})
+    headings.update({r: _response_heading(c, r) for r in c.response_names})
+    headings["wall_s"] = "wall time [s]"
     report.table(shown, n("design_results"),
-                 caption="Design (coded and actual levels) with simulated responses" + _cite(c, "design"))
+                 caption="Design (coded and actual levels) with simulated responses" + _cite(c, "design"),
+                 headings=headings)
     walls = table["wall_s"].dropna()
     if len(walls):
         report.paragraph(f"Wall time per design run: mean {walls.mean():.1f} s, max {walls.max():.1f} s, "
@@ -235,12 +384,13 @@ def _model_sections(report: HtmlReport, c: Campaign, design, response: str, n) -
     full = design.full[response]
     model = design.models[response]
     several = design.conditions != tuple(c.conditions)
-    report.section(f"Response model of {response}" + (f" ({design.name})" if several else ""), 3)
+    report.section(f"Response model of {_response_heading(c, response)}" + (f" ({design.name})" if several else ""),
+                   3)
     used = ("the reduced model" if design.removed.get(response) else f"the full {c.model_order} model") + (
         f" (backward elimination at alpha = {c.reduce_alpha:g})" if c.reduce_alpha is not None else "")
     report.paragraph(f"{c.model_order.capitalize()} model in coded factors "
                      + ", ".join(f"{f.name} = {f.parameter}" for f in c.factors)
-                     + f"; the calibration below solves {used}, and the diagnostics and figures "
+                     + f"; the calibration solves {used}, and the diagnostics and figures "
                        "are of that model.")
     reduction = (Reduction(model, tuple(design.removed.get(response, ()))) if c.reduce_alpha is not None
                  else None)
@@ -296,7 +446,8 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
     params = _drop_empty(pd.DataFrame(rows).set_index("condition"))
     report.table(params, n("calibrated_parameters"),
                  caption="Calibrated parameters per condition with the solution-set ranges"
-                         + (f", and the {ref} values" if ref in params.columns else "") + _cite(c, "calibrated"))
+                         + (f", and the {ref} values" if ref in params.columns else "") + _cite(c, "calibrated"),
+                 values={"factor": {f.name: f.label for f in c.factors}})
     pred = []
     for result in cal.conditions:
         outside = _outside_box(c, result.condition.reference)
@@ -327,7 +478,12 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                          "model reaches low": v.reachable[0], "model reaches high": v.reachable[1],
                          "desirability": (_target_desirability(result, v, goal) if on_path is None
                                           else np.nan)})
+    unit = _common_unit(c, c.response_names)
+    headings = {key: _with_unit(key, unit) for key in ("target", "predicted at calibrated",
+                                                        f"predicted at {ref} values", "model reaches low",
+                                                        "model reaches high")}
     report.table(_drop_empty(pd.DataFrame(pred).set_index("condition")), n("model_predictions"),
+                 headings=headings, values={"response": {r: _response_heading(c, r) for r in c.response_names}},
                  caption="Model predictions at the calibrated parameters"
                          + (f" and at the {ref} values" if any(r.reference_predicted for r in cal.conditions)
                             else "") + ", and the "
@@ -382,7 +538,7 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         if substitutes:
             title += ": " + "; ".join(substitutes)
         add_optimization_sections(report, result.optimization, n(f"solve_{result.condition.name}"),
-                                  title, level=4)
+                                  title, level=4, labels={r: _response_heading(c, r) for r in c.response_names})
         add_desirability_sections(report, cal, result, n(f"solve_{result.condition.name}"))
 
 
@@ -397,7 +553,7 @@ def _parameters_section(report: HtmlReport, cal: Calibration, n) -> None:
     from demcal.export.text import number
 
     c = cal.campaign
-    report.section("Calibrated material: every parameter", 3)
+    report.section("Calibrated material: every parameter", 3, anchor=_anchor(n("material")))
     try:
         card = build_card(c, cal.to_dict())
     except DemcalError as exc:
@@ -578,10 +734,13 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
     report.table(pd.DataFrame(status).set_index("condition"), n("loop_status"),
                  caption="How each condition's loop ended, and the runs it spent beyond the campaign's design")
     report.table(pd.DataFrame(boxes).set_index("condition"), n("loop_boxes"),
+                 headings={f.parameter: f.label for f in c.factors},
                  caption="Design boxes (box 0 is the campaign's; a box moves along the path of steepest "
                          "ascent or descent when a target lies outside what the model reaches)")
     if steps:
+        unit = _common_unit(c, c.response_names)
         report.table(pd.DataFrame(steps).set_index("condition"), n("loop_history"),
+                     headings={key: _with_unit(key, unit) for key in ("predicted", "simulated", "95 % half-width")},
                      caption="Every step of the loop (predicted: the corrected model at the chosen parameters)")
 
 
@@ -624,7 +783,12 @@ def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
                 "model check": v.confirmation,
             })
     loops = any(r.loop is not None and r.loop.discrepancy for r in cal.conditions)
+    unit = _common_unit(c, c.response_names)
+    headings = {key: _with_unit(key, unit) for key in ("lab mean", "lab sd", "model", "simulated", "simulated mean",
+                                                        "simulated sd", f"{level} of the mean, low",
+                                                        f"{level} of the mean, high")}
     report.table(_drop_empty(pd.DataFrame(rows).set_index("condition")), n("verification"),
+                 headings=headings, values={"response": {r: _response_heading(c, r) for r in c.response_names}},
                  caption="Simulated against measured at the calibrated parameters "
                          "(replicates: done / planned; relative error = |simulated mean - lab mean| / lab mean); "
                          "inside lab sd: the verification rule, the simulated mean within the lab's mean ± sd "
@@ -670,12 +834,13 @@ def _next_step(report: HtmlReport, cal: Calibration) -> None:
     report.note(text)
 
 
-def _img(path: Path, alt: str) -> str:
+def _picture(report: HtmlReport, path: Path, name: str, alt: str) -> str:
+    """The ``<img>`` of a picture file (read with the photo size limit), placed as the
+    report places figures (:meth:`HtmlReport.picture_html`)."""
     from demcal._checks import MAX_PHOTO_BYTES, read_limited
 
-    data = base64.b64encode(read_limited(path, MAX_PHOTO_BYTES, "photo", DataError)).decode("ascii")
-    mime = "image/jpeg" if path.suffix.lower() in (".jpg", ".jpeg") else "image/png"
-    return f'<img alt="{html.escape(alt)}" style="max-width:100%" src="data:{mime};base64,{data}">'
+    data = read_limited(path, MAX_PHOTO_BYTES, "photo", DataError)
+    return report.picture_html(data, name, alt, path.suffix or ".png")
 
 
 def _measured_photo(condition, base: Path):
@@ -735,43 +900,40 @@ def _images_section(report: HtmlReport, cal: Calibration, n) -> None:
             try:
                 figure = heap_3d_figure(read_spheres(spheres),
                                         title=f"{name}: verification run at the calibrated parameters")
-                cells["3d"] = report.figure_html(figure, n(f"heap_3d_{name}"), f"simulated heap of {name} in 3-D")
+                cells["3d"] = [{"img": report.figure_html(figure, n(f"heap_3d_{name}"),
+                                                          f"simulated heap of {name} in 3-D")}]
             except DemcalError as exc:
-                cells["3d"] = f'<p class="small">{html.escape(str(exc))}</p>'
+                cells["3d"] = [{"text": str(exc)}]
         picture = next(((key, path) for key, path in artifacts.items()
                         if path.suffix.lower() in (".png", ".jpg", ".jpeg") and path.is_file()), None)
         if picture is not None:
             heaps = heaps or picture[0].startswith("heap")
-            cells["picture"] = _img(picture[1], f"simulated {name}")
+            cells["picture"] = [{"img": _picture(report, picture[1], n(f"simulated_{name}"), f"simulated {name}")}]
         measured = _measured_photo(result.condition, c.path.parent)
         if measured is not None and measured[0].is_file():
             try:
-                cells["photo"] = report.figure_html(lab_photo_figure(*measured), n(f"lab_photo_{name}"),
-                                                    f"lab photo of {name} as measured")
+                cells["photo"] = [{"img": report.figure_html(lab_photo_figure(*measured), n(f"lab_photo_{name}"),
+                                                             f"lab photo of {name} as measured")}]
             except DemcalError as exc:  # shown as it is, with the reason it does not measure
-                cells["photo"] = (_img(measured[0], f"lab photo of {name}")
-                                  + f'<p class="small">not measured: {html.escape(str(exc))}</p>')
+                cells["photo"] = [{"img": _picture(report, measured[0], n(f"lab_photo_{name}"),
+                                                   f"lab photo of {name}")},
+                                  {"text": f"not measured: {exc}"}]
         if cells:
             chosen = ", ".join(f"{key} = {value:g}" for key, value in result.chosen.items())
-            rows.append((f'{html.escape(name)}<br><span class="small">{html.escape(chosen)}</span>', cells))
+            rows.append((name, chosen, cells))
     if not rows:
         return
-    shown = [key for key in _IMAGE_COLUMNS if any(key in cells for _, cells in rows)]
+    shown = [key for key in _IMAGE_COLUMNS if any(key in cells for _, _, cells in rows)]
     caption = (f"{c.title}: the verification run of each condition at its calibrated parameters (virtual test "
                f"{c.test}, profile {c.profile})" + (" beside its lab photo" if "photo" in shown else "")
                + _cite(c, "images") + ". " + ("Left to right: " if len(shown) > 1 else "")
                + "; ".join(_IMAGE_COLUMNS[key][2 if heaps else 3] for key in shown) + ".")
-    width = f"{90 // len(shown)}%"
-    body = "".join(
-        f'<tr><td class="t">{label}</td>'
-        + "".join(f'<td class="t" style="width:{width}">{cells.get(key, "<p class=small>no image</p>")}</td>'
-                  for key in shown) + "</tr>"
-        for label, cells in rows)
     report.section("Heap images: simulated and measured" if heaps else "Verification runs: what was measured", 3)
-    report.raw(f"<table><caption>{html.escape(caption)}</caption><thead><tr><th class=\"t\">condition</th>"
-               + "".join(f'<th class="t">{html.escape(_IMAGE_COLUMNS[key][0 if heaps else 1])}</th>'
-                         for key in shown)
-               + f"</tr></thead><tbody>{body}</tbody></table>")
+    report.block("image_table", caption=caption, width=f"{90 // len(shown)}%",
+                 headings=[_IMAGE_COLUMNS[key][0 if heaps else 1] for key in shown],
+                 rows=[{"name": name, "sub": chosen,
+                        "cells": [cells.get(key, [{"text": "no image"}]) for key in shown]}
+                       for name, chosen, cells in rows])
 
 
 # --------------------------------------------------------------------------- paper

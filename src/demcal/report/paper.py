@@ -333,8 +333,19 @@ def add_model_sections(report: HtmlReport, model: ResponseSurface, name: str, la
 
 
 def add_optimization_sections(report: HtmlReport, result: Optimization, name: str, title: str,
-                              max_rows: int = 10, level: int = 3) -> None:
-    """Solutions, solution-set factor ranges and their plot for one optimisation."""
+                              max_rows: int = 10, level: int = 3, labels: dict | None = None) -> None:
+    """Solutions, solution-set factor ranges and their plot for one optimisation;
+    ``labels``: response -> its heading with unit (default read from its name,
+    :func:`demcal.report.figures.response_label`)."""
+    from demcal.report.figures import response_label
+
+    labels = labels or {}
+    headings = {"desirability": "desirability [-]"}
+    for f in result.factors:
+        headings[f"coded:{f.name}"] = f"{f.name} coded"
+        headings[f"actual:{f.name}"] = f.label
+    for g in result.goals:
+        headings[f"predicted:{g.response}"] = f"predicted {labels.get(g.response) or response_label(g.response)}"
     report.section(title, level)
     goal_text = "; ".join(g.describe() for g in result.goals)
     reach = "; ".join(f"{r} reaches {lo:.4g} .. {hi:.4g} in the design box"
@@ -347,7 +358,7 @@ def add_optimization_sections(report: HtmlReport, result: Optimization, name: st
     sol = result.solutions.head(max_rows).copy()
     sol.index = np.arange(1, len(sol) + 1)
     sol.index.name = "solution"
-    report.table(sol, f"{name}_solutions",
+    report.table(sol, f"{name}_solutions", headings=headings,
                  caption=f"Best {len(sol)} of {len(result.solutions)} distinct solutions")
     if result.factor_ranges:
         rows = {f.name: {"factor": f.description or f.name, "solution set low": result.factor_ranges[f.name][0],
