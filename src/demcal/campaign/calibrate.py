@@ -23,17 +23,20 @@ Design-Expert's rules): predicted R² negative or more than 0.2 below adjusted R
 significant lack of fit, adequate precision below 4, or the ``tiny`` profile.
 
 Everything is recomputed from the store each time (the fits and the seeded search are
-deterministic), so ``demcal report`` shows exactly what ``calibrate`` found.
+deterministic), so ``demcal report`` shows exactly what ``calibrate`` found. The
+result types (:class:`Calibration` and its parts) and :func:`describe` are in
+:mod:`demcal.campaign.calibration`, and importable from here.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from demcal.campaign.calibration import PREDICTION_LEVEL, Calibration, ConditionResult, DesignFit, ResponseVerdict
+from demcal.campaign.calibration import describe, production_profile  # noqa: F401
 from demcal.campaign.config import Campaign, Condition
 from demcal.campaign.runner import check_store_owner, design_results, run_specs
 from demcal.campaign.solve import fit_models, round_parameter, solve_condition
@@ -46,227 +49,6 @@ R2_AGREEMENT = 0.2
 LACK_OF_FIT_ALPHA = 0.05
 #: Adequate precision (signal to noise) below this cannot navigate the design space.
 MIN_ADEQUATE_PRECISION = 4.0
-#: Confidence of the verification runs' prediction intervals.
-PREDICTION_LEVEL = 0.95
-
-
-@dataclass
-class ResponseVerdict:
-    """Simulated against measured for one response of one condition."""
-
-    response: str
-    target: float
-    lab_sd: float | None
-    predicted: float  #: the model's prediction at the chosen parameters
-    simulated: list[float]  #: each verification replicate
-    reachable: tuple[float, float]  #: the model's range inside the design box
-    #: why there is no interval, when there is none
-    no_interval: str = "no residual degrees of freedom"
-    #: what the intervals are made of (:func:`prediction_parts`): the model's prediction,
-    #: the t quantile, the residual mean square and the prediction's standard error
-    #: (NaNs: no interval)
-    parts: tuple[float, float, float, float] = (float("nan"),) * 4
-
-    def interval_of(self, n: int) -> tuple[float, float]:
-        """The model's 95 % prediction interval of the mean of ``n`` new runs at the
-        chosen parameters, ``centre ± t · sqrt(MSE / n + se²)`` (NaNs: none)."""
-        centre, t, mse, se = self.parts
-        if n < 1 or not np.all(np.isfinite(self.parts)):
-            return float("nan"), float("nan")
-        half = t * float(np.sqrt(mse / n + se * se))
-        return centre - half, centre + half
-
-    @property
-    def interval(self) -> tuple[float, float]:
-        """The 95 % prediction interval of one new run."""
-        return self.interval_of(1)
-
-    @property
-    def simulated_mean(self) -> float:
-        return float(np.mean(self.simulated)) if self.simulated else float("nan")
-
-    @property
-    def simulated_sd(self) -> float:
-        return float(np.std(self.simulated, ddof=1)) if len(self.simulated) > 1 else float("nan")
-
-    @property
-    def relative_error_percent(self) -> float:
-        return 100.0 * abs(self.simulated_mean - self.target) / abs(self.target)
-
-    @property
-    def within_lab_sd(self) -> bool | None:
-        if self.lab_sd is None or not self.simulated:
-            return None
-        return abs(self.simulated_mean - self.target) <= self.lab_sd
-
-    @property
-    def mean_interval(self) -> tuple[float, float]:
-        """The model's 95 % prediction interval of the mean of the verification runs
-        (:meth:`interval_of` their number), so that the check it makes does not fail more
-        often as replicates are added."""
-        return self.interval_of(len(self.simulated))
-
-    @property
-    def confirmation(self) -> str:
-        """The model check: "confirmed" when the mean of the verification runs lies inside
-        the model's prediction interval for a mean of that many runs (:attr:`mean_interval`).
-        It says whether the response model predicted the simulation; whether the
-        calibration is verified is the lab's rule (:attr:`within_lab_sd` and the loop's)."""
-        if not self.simulated:
-            return "not simulated yet"
-        lo, hi = self.mean_interval
-        if not (np.isfinite(lo) and np.isfinite(hi)):
-            return f"no interval ({self.no_interval})"
-        if lo <= self.simulated_mean <= hi:
-            return "confirmed"
-        return f"not confirmed (the mean {self.simulated_mean:.2f} lies outside {lo:.2f} to {hi:.2f})"
-
-    @property
-    def target_reachable(self) -> bool:
-        lo, hi = self.reachable
-        tol = 1e-9 * max(1.0, abs(hi - lo))
-        return lo - tol <= self.target <= hi + tol
-
-
-@dataclass
-class ConditionResult:
-    """The calibration of one condition (e.g. one moisture content)."""
-
-    condition: Condition
-    chosen: dict[str, float]  #: parameter key -> calibrated value (what was simulated)
-    chosen_coded: dict[str, float]  #: factor name -> coded level
-    desirability: float
-    optimization: Any  #: demcal.optimize.Optimization; its first solution is the chosen one
-    factor_ranges: dict[str, tuple[float, float]]  #: parameter key -> range over the solution set
-    verdicts: list[ResponseVerdict]
-    verification: list[RunRecord]
-    specs: list[RunSpec]
-    notes: list[str] = field(default_factory=list)
-    reference_predicted: dict[str, float] = field(default_factory=dict)  #: response -> model at the published values
-    loop: Any = None  #: the :class:`demcal.campaign.loop.LoopResult` that found it
-
-    @property
-    def solutions(self) -> pd.DataFrame:
-        """The distinct solutions of the search, the chosen one first."""
-        return self.optimization.solutions
-
-    @property
-    def verified(self) -> bool:
-        return bool(self.verification) and all(r.status == "done" for r in self.verification)
-
-
-@dataclass
-class DesignFit:
-    """One design of a campaign with its results and models: the campaign's own, or one per
-    distinct set of conditions' fixed settings (:meth:`Campaign.designs`)."""
-
-    campaign: Campaign  #: the campaign as this design's runs see it (its conditions' settings added)
-    conditions: tuple[Condition, ...]  #: the conditions it serves
-    table: pd.DataFrame  #: the design with its results (design_results)
-    full: dict[str, Any]  #: response -> the full model of the campaign's order
-    models: dict[str, Any]  #: response -> the model used (reduced if asked)
-    removed: dict[str, tuple]  #: response -> terms removed by the reduction, with p
-
-    @property
-    def name(self) -> str:
-        """The conditions it serves, e.g. "6.26 %" or "6.26 %, 14.1 %"."""
-        return ", ".join(c.name for c in self.conditions)
-
-
-@dataclass
-class Calibration:
-    """Everything ``demcal calibrate`` found for a campaign."""
-
-    campaign: Campaign
-    table: pd.DataFrame  #: the (first) design with its results (design_results)
-    full: dict[str, Any]  #: response -> the full model of the campaign's order (first design)
-    models: dict[str, Any]  #: response -> the model used (reduced if asked; first design)
-    removed: dict[str, tuple]  #: response -> terms removed by the reduction, with p (first design)
-    conditions: list[ConditionResult]
-    notes: list[str] = field(default_factory=list)
-    #: what must be read before the results (failed design runs left out of the fit);
-    #: the same facts are in ``notes``, which the report shows
-    warnings: list[str] = field(default_factory=list)
-    #: every design: one, or one per distinct set of conditions' fixed settings
-    designs: list[DesignFit] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        if not self.designs:
-            self.designs = [DesignFit(self.campaign, tuple(self.campaign.conditions), self.table, self.full,
-                                      self.models, self.removed)]
-
-    def to_dict(self) -> dict[str, Any]:
-        """calibration.json: with several designs, each condition holds its design's models;
-        with per-condition settings, each condition holds its fixed settings and their sources."""
-        from demcal.campaign.digest import campaign_hash
-
-        out: dict[str, Any] = {"campaign": self.campaign.name, "profile": self.campaign.profile,
-                               "production": self.campaign.calibration.production,
-                               "campaign_hash": campaign_hash(self.campaign),
-                               "test": self.campaign.test, "warnings": list(self.warnings),
-                               "notes": list(self.notes), "models": {},
-                               "conditions": []}
-        several = len(self.designs) > 1
-        if not several:
-            out["models"] = _models_dict(self.campaign, self.designs[0])
-        settings = {}
-        if self.campaign.per_condition:
-            from demcal.campaign.chain import condition_settings
-
-            settings = condition_settings(self.campaign)
-        for result in self.conditions:
-            design = next(d for d in self.designs if result.condition.name in {c.name for c in d.conditions})
-            out["conditions"].append({
-                "name": result.condition.name,
-                **({"settings": {key: {"value": value, "source": source}
-                                 for key, (value, source) in settings[result.condition.name].items()}}
-                   if settings else {}),
-                **({"models": _models_dict(self.campaign, design)} if several else {}),
-                "chosen": result.chosen, "chosen_coded": result.chosen_coded,
-                "desirability": _num(result.desirability),
-                "factor_ranges": {k: list(v) for k, v in result.factor_ranges.items()},
-                "reference": dict(result.condition.reference),
-                "reference_predicted": result.reference_predicted,
-                "notes": result.notes,
-                **(_loop_dict(self.campaign, result.loop) if result.loop is not None else {}),
-                "verification": [
-                    {"response": v.response, "target": v.target, "lab_sd": v.lab_sd, "predicted": v.predicted,
-                     "simulated": v.simulated, "simulated_mean": _num(v.simulated_mean),
-                     "simulated_sd": _num(v.simulated_sd), "relative_error_percent": _num(v.relative_error_percent),
-                     "within_lab_sd": v.within_lab_sd, "reachable": list(v.reachable),
-                     "target_reachable": v.target_reachable,
-                     "prediction_interval": {"level": PREDICTION_LEVEL, "low": _num(v.interval[0]),
-                                             "high": _num(v.interval[1])},
-                     "mean_interval": {"level": PREDICTION_LEVEL, "n": len(v.simulated),
-                                       "low": _num(v.mean_interval[0]), "high": _num(v.mean_interval[1])},
-                     "confirmation": v.confirmation}
-                    for v in result.verdicts
-                ],
-            })
-        return out
-
-
-def _models_dict(campaign: Campaign, design: DesignFit) -> dict[str, Any]:
-    """The models of one design, for calibration.json."""
-    return {name: {**model.to_dict(), "order": campaign.model_order,
-                   "removed": [{"term": t, "p": p} for t, p in design.removed.get(name, ())],
-                   "equation_coded": model.equation("coded"), "equation_actual": model.equation("actual")}
-            for name, model in design.models.items()}
-
-
-def _loop_dict(campaign: Campaign, loop) -> dict[str, Any]:
-    """The loop's status, boxes, history and discrepancy models, for calibration.json."""
-    return {"status": loop.status, "runs_by_stage": loop.runs_by_stage(), "status_reason": loop.reason,
-            "production_profile": production_profile(campaign), "cheap_profile": campaign.profile,
-            "box": loop.box.to_dict(campaign), "boxes": [b.to_dict(campaign) for b in loop.boxes],
-            "history": [step.to_dict() for step in loop.history],
-            "discrepancy": {r: d.describe() for r, d in loop.discrepancy.items()},
-            "cheap_target": loop.cheap_target,
-            **({"on_path": {**loop.on_path, "steps": list(loop.on_path["steps"])}} if loop.on_path else {})}
-
-
-def _num(value: float) -> float | None:
-    return float(value) if np.isfinite(value) else None
 
 
 def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str | None = None,
@@ -441,14 +223,6 @@ def prediction_parts(model, corrected, point,
     return centre, float(stats.t.ppf(0.5 + level / 2, df)), float(mse), se
 
 
-def production_profile(campaign: Campaign) -> str:
-    """The profile the loop verifies at (``[calibration] production``, else the campaign's)."""
-    production = campaign.calibration.production or campaign.profile
-    if production != campaign.profile:
-        campaign.with_profile(production)  # its settings must suit that profile too
-    return production
-
-
 def _close_loops(campaign: Campaign, designs: list[DesignFit], notes: list[str], *, simulate: bool, workers,
                  scheduler, progress: bool, retry_failed: bool, executor) -> list[ConditionResult]:
     """Run :func:`demcal.campaign.loop.run_condition` for every condition, on its design
@@ -587,50 +361,3 @@ def _judge(result: ConditionResult, verdict: ResponseVerdict) -> None:
         result.notes.append(
             f"{verdict.response}: simulated {verdict.simulated_mean:.2f} misses the lab's "
             f"{verdict.target:g} ± {verdict.lab_sd:g} by {abs(verdict.simulated_mean - verdict.target):.2f}; {why}.")
-
-
-def describe(calibration: Calibration) -> str:
-    """A few lines for the terminal; warnings about the design come first."""
-    lines = [f"warning: {warning}" for warning in calibration.warnings]
-    several = len(calibration.designs) > 1
-    for design in calibration.designs:
-        for response, model in design.models.items():
-            fit = model.fit
-            lines.append((f"{design.name}: " if several else "")
-                         + f"{response}: {calibration.campaign.model_order} model"
-                         + (f" reduced at alpha {calibration.campaign.reduce_alpha:g}"
-                            if design.removed[response] else "")
-                         + f", R² {fit.r2:.3f}, adj. R² {fit.adj_r2:.3f}, pred. R² {fit.pred_r2:.3f}")
-            lines.append(f"  {model.equation('coded', digits=4)}")
-    fixed = {}
-    if calibration.campaign.per_condition:
-        from demcal.campaign.chain import SOURCE_DEFAULT, condition_settings
-
-        fixed = condition_settings(calibration.campaign)
-    for result in calibration.conditions:
-        params = ", ".join(f"{k} = {v:g}" for k, v in result.chosen.items())
-        lines.append(f"{result.condition.name}: {params}")
-        if fixed:
-            lines.append("  fixed: " + ", ".join(f"{k} = {v} ({source})" for k, (v, source)
-                                                 in fixed[result.condition.name].items() if source != SOURCE_DEFAULT))
-        if result.loop is not None:
-            moved = len(result.loop.boxes) - 1
-            lines.append(f"  loop: {result.loop.status}"
-                         + (f" after {moved} box move{'s' if moved != 1 else ''}" if moved else "")
-                         + f"; {result.loop.reason}")
-        for v in result.verdicts:
-            inside = {True: "inside", False: "outside", None: "no lab sd"}[v.within_lab_sd]
-            sim = (f"simulated {v.simulated_mean:.2f} (n={len(v.simulated)}), error {v.relative_error_percent:.2f} %, "
-                   f"{inside} the lab spread" if v.simulated else "not simulated yet")
-            sd = f" ± {v.lab_sd:g}" if v.lab_sd is not None else ""
-            lines.append(f"  {v.response}: target {v.target:g}{sd}, predicted {v.predicted:.2f}, {sim}")
-            if v.simulated and np.all(np.isfinite(v.mean_interval)):
-                lo, hi = v.mean_interval
-                lines.append(f"  {v.response}: model check: the model's 95 % interval for a mean of "
-                             f"{len(v.simulated)} is {lo:.2f} to {hi:.2f}: {v.confirmation}")
-        for note in result.notes:
-            lines.append(f"  note: {note}")
-    for note in calibration.notes:
-        if note not in calibration.warnings:
-            lines.append(f"note: {note}")
-    return "\n".join(lines)
