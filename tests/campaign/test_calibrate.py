@@ -182,7 +182,7 @@ def test_report_renders_in_headless_chromium(report_with_reference, tmp_path):
     its section "demcal's benches against the published responses" included."""
     report_path = report_with_reference
     html = report_path.read_text()
-    assert "demcal&#x27;s benches against the published responses" in html or \
+    assert "demcal&#39;s benches against the published responses" in html or \
         "demcal's benches against the published responses" in html
     tables = report_path.parent / "tables"
     import pandas as pd

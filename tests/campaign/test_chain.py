@@ -220,7 +220,7 @@ def test_calibration_json_report_and_card_say_where_each_value_came_from(chained
     html = write_report(campaign, campaign.workdir / "report", [cal], figure_files=False).read_text()
     assert "Fixed settings per condition" in html and source in html
     assert "Design and results of dry" in html and "Design and results of wet" in html
-    assert "Response model of repose_angle_deg (wet)" in html
+    assert "Response model of Repose angle [°] (wet)" in html
     table = json.loads((campaign.workdir / "report" / "tables" / "condition_settings.json").read_text())
     assert {(r["condition"], r["setting"], r["source"]) for r in table} == {
         (name, key, source) for name in upstream for key in FRICTION} | {

@@ -450,7 +450,7 @@ def test_a_path_that_reads_inside_the_window_without_crossing_is_verified_at_its
     from demcal.report.campaign_report import write_report
 
     html = write_report(campaign, tmp_path / "report", [cal], figure_files=False).read_text()
-    assert "the lab window, at the path&#x27;s nearest step to the target from box 0 (read 37.98)" in html
+    assert "the lab window, at the path&#39;s nearest step to the target from box 0 (read 37.98)" in html
     assert "outside: verified at the step of the path of steepest ascent from box 0 nearest the lab target" in html
 
 

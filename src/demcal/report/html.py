@@ -165,12 +165,6 @@ class HtmlReport:
     def bullets(self, items) -> None:
         self.blocks.append({"kind": "bullets", "items": [str(i) for i in items]})
 
-    def raw(self, fragment: str) -> None:
-        """Trusted HTML, inserted as is."""
-        from markupsafe import Markup
-
-        self.blocks.append({"kind": "raw", "html": Markup(fragment)})
-
     def contents(self) -> None:
         """The table of contents: the level-2 and level-3 headings that follow it."""
         self.blocks.append({"kind": "toc"})
