@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import html
 import importlib.util
+import os
 import re
 import shutil
 import sys
@@ -233,3 +234,23 @@ def test_side_by_side_figures_are_written_at_300_dpi(tmp_path):
         assert png.size == (600, 300)
         assert png.info["dpi"][0] == pytest.approx(300, abs=0.5)
     assert [p.name for p in (tmp_path / "figures").iterdir()] == ["cell.png"]
+
+
+def test_the_summary_gives_each_conditions_simulated_mean_n_and_verdict(built):
+    """Issue 40: the first screen's verdict, for conditions whose verification ran."""
+    campaign, cal, _, page = built
+    start = page.index('<section id="summary">')
+    summary = html.unescape(page[start:page.index("</section>", start)])
+    for result in cal.conditions:
+        row = summary[summary.index(f"<b>{result.condition.name}</b>"):]
+        row = row[:row.index("</tr>")]
+        (v,) = result.verdicts
+        assert v.simulated and f"; simulated {v.simulated_mean:.2f}" in row and f"n = {len(v.simulated)}" in row
+        assert f"lab {v.target:g} ± {v.lab_sd:g}" in row
+        if result.loop is not None:
+            assert result.loop.status in row
+        else:
+            assert ("inside the lab's mean ± sd" if v.within_lab_sd else "outside the lab's mean ± sd") in row
+    assert "Verification: Repose angle [°]" in summary
+    card = Path(os.path.relpath(campaign.workdir / "calibration.json", built[2].parent)).as_posix()
+    assert f'<a href="{card}">calibration.json</a>' in summary  # calibrate wrote it
