@@ -127,3 +127,23 @@ def test_importing_the_engine_touches_no_file():
             "from demcal.particles.materials import soil, soil_interaction; "
             "demcal.dem.Simulation([soil()], soil_interaction()); assert c._ensured")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_docs_first_example_runs_shortened(tmp_path, monkeypatch):
+    """docs/dem.md's first example (materials by name, no interaction for a pair that
+    cannot meet, insertion, VTK frames and a particle file) in at most 30 lines, run
+    with fewer particles for a few steps."""
+    text = DOC.read_text(encoding="utf-8")
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    assert len(code.strip().splitlines()) <= 30
+    short = code.replace("), 500, unit,", "), 40, unit,").replace("duration=1.0", "duration=0.004") \
+        .replace("interval=2000", "interval=20")
+    assert short.count(", 40, unit,") == 1 and "duration=0.004" in short
+    monkeypatch.chdir(tmp_path)
+    scope = {}
+    exec(compile(short, str(DOC), "exec"), scope)
+    sim = scope["sim"]
+    assert sim.n_particles == 40
+    assert list(sim._walls.rows.material) == [1] * sim._walls.rows.n   # the walls' "steel"
+    assert len((tmp_path / "bed.csv").read_text().splitlines()) == 41
+    assert (tmp_path / "frames" / "particles.pvd").is_file()

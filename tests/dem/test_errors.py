@@ -85,9 +85,34 @@ def test_unknown_material_and_missing_pair(backend):
     with pytest.raises(ConfigError, match="unknown material 'steel'"):
         sim.add_particles(RADIUS, [[0, 0, 0]], material="steel")
     steel = Material(7800, 7e10, 0.3, name="steel")
-    with pytest.raises(ConfigError, match="no interaction defined between materials 'glass' "
-                                          "and 'steel'"):
-        Simulation([GLASS, steel], {(0, 0): Interaction()}, backend=backend)
+    # pairs that never meet need no interaction: steel is only checked once steel
+    # particles (or walls) join the glass ones
+    sim = Simulation([GLASS, steel], {(0, 0): Interaction()}, backend=backend)
+    sim.add_particles(RADIUS, [[0, 0, 0]])
+    with pytest.raises(ConfigError, match="no interaction defined between materials 'steel' "
+                                          "and 'glass', and steel particles would meet glass particles"):
+        sim.add_particles(RADIUS, [[0.1, 0, 0]], material="steel")
+    assert sim.n_particles == 1
+
+
+def test_walls_take_material_names_and_pairs_that_meet_need_an_interaction(backend):
+    """A wall names its material; glass particles on a steel plate need a glass-steel
+    interaction, and no steel-steel one (no steel particle)."""
+    from demcal.geometry import Disk, WallSet
+
+    steel = Material(7800, 7e10, 0.3, name="steel")
+    by_name = Simulation([GLASS, steel], {("glass", "glass"): Interaction(), ("steel", "glass"): Interaction()},
+                         walls=WallSet([Disk(radius=0.1, material="steel")]), backend=backend)
+    assert list(by_name._walls.rows.material) == [1]
+    by_name.add_particles(RADIUS, [[0, 0, 0.01]])
+    lone = Simulation([GLASS, steel], {(0, 0): Interaction()}, walls=WallSet([Disk(radius=0.1, material="steel")]),
+                      backend=backend)
+    with pytest.raises(ConfigError, match="no interaction defined between materials 'glass' and 'steel', "
+                                          "and glass particles would meet steel walls"):
+        lone.add_particles(RADIUS, [[0, 0, 0.01]])
+    with pytest.raises(ConfigError, match="a wall's material: unknown material 'iron'; known materials are"):
+        Simulation([GLASS, steel], Interaction(), walls=WallSet([Disk(radius=0.1, material="iron")]),
+                   backend=backend)
 
 
 def test_run_needs_duration_or_steps(backend):

@@ -113,7 +113,7 @@ class Simulation:
         d = self.description
         self.time = 0.0
         self.step_count = 0
-        self._walls = WallTable(walls, self.time, len(d.materials))
+        self._walls = WallTable(walls, self.time, d.material_table)
         self.gravity_schedule = schedule
         self._backend = BACKENDS[d.backend](d.threads)
         self._store = Store.empty()
@@ -220,6 +220,8 @@ class Simulation:
         given ``dt`` is checked again against the new particles at the next step.
         """
         mi = self.material_table.index(material)
+        self.material_table.check_meets(mi, np.unique(self._store.bodies.mat[:self.n_particles]),
+                                        np.unique(self._walls.rows.material))
         b = _insertion.batch(mi, template, positions, orientations, scales, velocities,
                              angular_velocities, fixed, seed, radii, rotation)
         _insertion.check_domain(b, self.domain)

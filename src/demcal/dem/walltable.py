@@ -67,13 +67,17 @@ class WallRows(NamedTuple):
 class WallTable:
     """The rows of ``walls`` (a WallSet, or None) as the engine sees them."""
 
-    def __init__(self, walls, time: float, n_materials: int):
+    def __init__(self, walls, time: float, materials):
+        """``materials``: the simulation's
+        :class:`~demcal.particles.materials.MaterialTable`, which resolves each wall's
+        material, a name or an index."""
         self.walls = walls
+        if walls is not None and hasattr(walls, "resolve_materials"):
+            try:
+                walls.resolve_materials(materials.index)
+            except ConfigError as err:
+                raise ConfigError(f"a wall's material: {err}") from None
         self.load(time)
-        m = self.rows.material
-        if m.size and (m.min() < 0 or m.max() >= n_materials):
-            raise ConfigError(f"a wall's material index is out of range (there are "
-                              f"{n_materials} materials).")
 
     def load(self, time: float) -> None:
         """Copy every row of the wall set (placed at ``time``)."""

@@ -44,15 +44,15 @@ def _positive(value, name: str, allow_zero: bool = False) -> float:
     return v
 
 
-def _material_index(material) -> int:
-    """A wall's material: a whole number >= 0, the position of its material in the list
-    given to :class:`~demcal.dem.simulation.Simulation` (walls are built before the
-    simulation, so they cannot look a material up by name)."""
+def _material_ref(material) -> int | str:
+    """A wall's material: its name (a non-empty string, looked up in the list given to
+    :class:`~demcal.dem.simulation.Simulation` when the simulation is built) or its
+    position in that list (a whole number >= 0)."""
     if isinstance(material, str):
-        raise ConfigError(
-            f"walls take a material index (the material's position in the list given to "
-            f"Simulation, e.g. material=1), not a name: got {material!r}."
-        )
+        if not material.strip():
+            raise ConfigError("a wall material name must not be empty; give the material's "
+                              "name or its position in the list given to Simulation.")
+        return material
     ok = False
     if isinstance(material, (int, np.integer)) and not isinstance(material, (bool, np.bool_)):
         ok = material >= 0
@@ -60,8 +60,8 @@ def _material_index(material) -> int:
         ok = bool(np.isfinite(material)) and material >= 0 and material == int(material)
     if not ok:
         raise ConfigError(
-            f"a wall material must be an index >= 0 (the material's position in the list "
-            f"given to Simulation), got {material!r}."
+            f"a wall material must be a material's name or an index >= 0 (its position in "
+            f"the list given to Simulation), got {material!r}."
         )
     return int(material)
 
@@ -79,15 +79,15 @@ def _row(point=None, direction=None, *values) -> np.ndarray:
 
 
 class Wall:
-    """Base class: a named surface with a material index and a motion."""
+    """Base class: a named surface with a material (name or index) and a motion."""
 
     kind_name = "wall"
 
-    def __init__(self, name: str | None = None, material: int = 0, motion=None):
+    def __init__(self, name: str | None = None, material: int | str = 0, motion=None):
         if name is not None and (not isinstance(name, str) or not name):
             raise ConfigError(f"a wall name must be a non-empty string, got {name!r}.")
         self.name = name
-        self.material = _material_index(material)
+        self.material = _material_ref(material)
         self.motion: Motion = as_motion(motion)
 
     def rows(self) -> tuple[np.ndarray, np.ndarray]:

@@ -10,7 +10,8 @@ velocity  float64[nw, 3]    linear velocity of the row's reference point [m/s]
 omega     float64[nw, 3]    angular velocity [rad/s]
 origin    float64[nw, 3]    reference point (rotation centre) [m]
 aabb      float64[nw, 6]    xmin, ymin, zmin, xmax, ymax, zmax (inf for planes)
-material  int32[nw]         material index
+material  int32[nw]         material index (-1 for a wall named by its material's name
+                            until a simulation resolves it: :meth:`resolve_materials`)
 group     int32[nw]         index into :attr:`WallSet.names` (one per user wall)
 row_id    int64[nw]         the row's number when the set was built; it stays with
                             the row when :meth:`WallSet.remove` drops other walls
@@ -83,7 +84,8 @@ class WallSet:
             self.group = np.zeros(0, np.int32)
             self._ref_origin = np.zeros((0, 3))
         nw = len(self.kind)
-        self.material = np.array([walls[g].material for g in self.group], dtype=np.int32)
+        self.material = np.array([m if isinstance(m, int) else -1
+                                  for m in (walls[g].material for g in self.group)], dtype=np.int32)
         self.params = self._ref_params.copy()
         self.velocity = np.zeros((nw, 3))
         self.omega = np.zeros((nw, 3))
@@ -95,6 +97,13 @@ class WallSet:
         self.version: int = 0
         self.time = None
         self.update(t, force=True)
+
+    def resolve_materials(self, index) -> None:
+        """Set each row's material index from its wall's material, a name or an index,
+        with ``index`` (a simulation's :meth:`~demcal.particles.materials.MaterialTable.index`,
+        which says what is wrong with an unknown name or an index out of range)."""
+        if len(self.group):
+            self.material = np.array([index(self.walls[g].material) for g in self.group], dtype=np.int32)
 
     def _index(self) -> None:
         """The row slice of each group, and whether any wall moves."""

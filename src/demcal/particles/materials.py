@@ -234,7 +234,10 @@ class MaterialTable:
     interactions : Interaction or dict
         One :class:`Interaction` for every pair, or a dict keyed by pairs of material
         indices or names ``(a, b)`` (order irrelevant); the key ``"default"`` covers
-        pairs not listed. A missing pair is a :class:`ConfigError`.
+        pairs not listed. A pair may be left out when its materials never meet (two wall
+        materials, or a material no particle is made of): the simulation checks each
+        pair when particles of a material are added (:meth:`check_meets`), and a pair
+        that meets with no interaction is a :class:`ConfigError` then.
     """
 
     materials: list
@@ -275,20 +278,24 @@ class MaterialTable:
                 pairs[(ib, ia)] = val
         else:
             raise ConfigError("interactions must be an Interaction or a dict of them.")
-        table = [[None] * n for _ in range(n)]
-        for i in range(n):
-            for j in range(n):
-                it = pairs.get((i, j), default)
-                if it is None:
-                    raise ConfigError(
-                        f"no interaction defined between materials {mats[i].name!r} and "
-                        f"{mats[j].name!r}; add one or a 'default' interaction.")
-                table[i][j] = it
-        self.pairs = table
+        self.pairs = [[pairs.get((i, j), default) for j in range(n)] for i in range(n)]
 
-    def interaction(self, i: int, j: int) -> Interaction:
-        """The interaction between materials ``i`` and ``j`` (indices)."""
+    def interaction(self, i: int, j: int) -> Interaction | None:
+        """The interaction between materials ``i`` and ``j`` (indices); None for a pair
+        left out (:meth:`check_meets` refuses it where it meets)."""
         return self.pairs[i][j]
+
+    def check_meets(self, new: int, particles, walls) -> None:
+        """ConfigError when particles of material ``new`` would meet, with no interaction,
+        particles of a material in ``particles`` (itself included) or a wall of a
+        material in ``walls`` (indices)."""
+        for other, what in [(int(m), "particles") for m in sorted({new, *map(int, particles)})] + \
+                           [(int(m), "walls") for m in sorted(set(map(int, walls)))]:
+            if self.pairs[new][other] is None:
+                a, b = self.materials[new].name, self.materials[other].name
+                raise ConfigError(
+                    f"no interaction defined between materials {a!r} and {b!r}, and {a} particles "
+                    f"would meet {b} {what}; add one or a 'default' interaction.")
 
     def index(self, ref) -> int:
         """Index of a material given by index or name."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from demcal.errors import ConfigError
+from demcal.particles.materials import Interaction
 
 from . import registry  # every sub-model is declared before the columns are read
 from .declare import COLUMNS, Coefficient
@@ -58,7 +59,10 @@ def pair_table(material_table, model=None) -> np.ndarray:
     tab = np.zeros((n, n, len(COLUMNS)))
     for i in range(n):
         for j in range(n):
-            tab[i, j] = pair_row(mats[i], mats[j], material_table.interaction(i, j), chosen)
+            # a pair left out never meets (MaterialTable.check_meets): the engine's
+            # default interaction fills its row
+            it = material_table.interaction(i, j)
+            tab[i, j] = pair_row(mats[i], mats[j], Interaction() if it is None else it, chosen)
     return tab
 
 
