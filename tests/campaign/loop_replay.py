@@ -62,16 +62,26 @@ def load_store(data: dict[str, Any], path: Path) -> None:
 
 
 def build(fixture: Path, folder: Path):
-    """The fixture's campaign, with its store, laid out in ``folder``: the parsed campaign."""
+    """The fixture's campaign, with its store, laid out in ``folder``: the parsed campaign.
+
+    The fixture holds the campaign folder's files at their places (an upstream
+    campaign's file and ``calibration.json`` too, for a chained one); ``expected.json``
+    names the campaign file where there are several."""
     from demcal.campaign.config import load_campaign
 
-    (campaign_file,) = [p for p in fixture.glob("*.toml") if p.name not in SIDE_FILES]
-    for path in fixture.iterdir():
-        if path.name not in OWN:
-            shutil.copy(path, folder / path.name)
+    for path in fixture.rglob("*"):
+        if not path.is_file() or (path.parent == fixture and path.name in OWN):
+            continue
+        target = folder / path.relative_to(fixture)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, target)
+    name = json.loads((fixture / "expected.json").read_text()).get("campaign")
+    if name is None:
+        (campaign_file,) = [p for p in fixture.glob("*.toml") if p.name not in SIDE_FILES]
+        name = campaign_file.name
     with gzip.open(fixture / "store.json.gz", "rt", encoding="utf-8") as f:
         data = json.load(f)
-    campaign = load_campaign(folder / campaign_file.name)
+    campaign = load_campaign(folder / name)
     campaign.store_path.parent.mkdir(parents=True, exist_ok=True)
     load_store(data, campaign.store_path)
     return campaign
@@ -172,7 +182,9 @@ def same(a: Any, b: Any) -> bool:
 
 
 def make(campaigns: Path, name: str, fixture: Path) -> None:
-    """Write a fixture of campaign ``name`` in a demo's ``campaigns`` folder, and its expected digest."""
+    """Write a fixture of campaign ``name`` in a demo's ``campaigns`` folder, and its
+    expected digest (with the campaign files it takes settings from, and their
+    ``calibration.json``)."""
     import tempfile
 
     import pytest
@@ -185,10 +197,18 @@ def make(campaigns: Path, name: str, fixture: Path) -> None:
     for side in SIDE_FILES:
         for path in campaigns.glob(side):
             shutil.copy(path, fixture / path.name)
+    upstreams = {c.upstream.path: c.upstream for c in campaign.conditions if c.upstream is not None}
+    for other in upstreams.values():
+        shutil.copy(other.path, fixture / other.path.name)
+        workdir = fixture / other.workdir.relative_to(campaign.path.parent)
+        workdir.mkdir(parents=True, exist_ok=True)
+        shutil.copy(other.workdir / "calibration.json", workdir)
     with gzip.GzipFile(fixture / "store.json.gz", "wb", mtime=0) as raw:
         raw.write(json.dumps(dump_store(campaign.store_path), sort_keys=True).encode())
+    (fixture / "expected.json").write_text(json.dumps({"campaign": campaign.path.name}) + "\n")
     with tempfile.TemporaryDirectory() as tmp, pytest.MonkeyPatch.context() as mp:
         data = replay(fixture, Path(tmp), mp)
+    data["campaign"] = campaign.path.name
     (fixture / "expected.json").write_text(json.dumps(data, indent=1, sort_keys=True) + "\n")
 
 
