@@ -107,11 +107,13 @@ def _summary(report: HtmlReport, cal: Calibration, several: bool) -> dict:
     conditions = []
     for result in cal.conditions:
         values = []
+        on_path = result.loop is not None and result.loop.on_path is not None
         for f in c.factors:
             value = result.chosen.get(f.parameter)
             lo, hi = result.factor_ranges.get(f.parameter, (np.nan, np.nan))
             values.append({"value": "" if value is None else f"{value:.4g}",
-                           "range": f"{lo:.4g} to {hi:.4g}" if np.isfinite(lo) and np.isfinite(hi) else ""})
+                           "range": f"set {lo:.4g} to {hi:.4g}" if np.isfinite(lo) and np.isfinite(hi) else
+                           "a point on the path, no solution set" if on_path else ""})
         conditions.append({"name": result.condition.name,
                            "label": result.condition.label if result.condition.label != result.condition.name else "",
                            "values": values, "verdicts": [_verdict(c, result, v, one is None)
@@ -681,7 +683,7 @@ def _benchmark_section(report: HtmlReport, c: Campaign, n) -> None:
         if not comparisons:
             continue
         label = next((r.label for r in c.responses if r.name == response and r.label), response)
-        report.section(f"demcal's benches against the published responses ({label})", 3)
+        report.section(f"demcal's benches against the published responses ({_response_heading(c, response)})", 3)
         report.paragraph(
             f"Each design point of {c.reference_table.name} simulated by demcal ({c.test}) at the same parameter "
             "values: the mean of demcal's runs there against the published value. Offset = demcal - published; "
