@@ -9,7 +9,8 @@ its code (the digest of :func:`loop_replay.loop_digest`, floats kept exactly)::
     python tests/campaign/loop_digest.py before.json after.json
 
 Each test's loops are listed in the order they ran, with the arguments of every ``run``
-call they made; the tests' temporary folders are written ``<dir>``.
+call they made; the tests' temporary folders are written ``<dir>``. Beside the digest,
+``<name>.transitions.json`` lists the state transitions each test's loops took.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import pytest
 
 _current = {"test": None}
 _found: dict[str, list] = {}
+_walked: dict[str, list] = {}  #: test -> the (state, next state) pairs its loops took
 
 
 def pytest_configure(config):
@@ -45,6 +47,7 @@ def pytest_configure(config):
         result = real(*args, run=run_recorded, **kw)
         base = config._tmp_path_factory.getbasetemp() if hasattr(config, "_tmp_path_factory") else None
         _found.setdefault(_current["test"], []).append(plain({**loop_digest(result), "asked": asked}, base))
+        _walked.setdefault(_current["test"], []).extend(getattr(result, "transitions", []))
         return result
 
     loop.run_condition = recorded
@@ -60,6 +63,8 @@ def pytest_unconfigure(config):
     out = os.environ.get("DEMCAL_LOOP_DIGEST")
     if out:
         Path(out).write_text(json.dumps(_found, indent=1, sort_keys=True) + "\n")
+        walked = {test: sorted(set(map(tuple, pairs))) for test, pairs in _walked.items() if pairs}
+        Path(out).with_suffix(".transitions.json").write_text(json.dumps(walked, indent=1, sort_keys=True) + "\n")
 
 
 if __name__ == "__main__":

@@ -427,10 +427,10 @@ def test_a_path_that_reads_inside_the_window_without_crossing_is_verified_at_its
     path from box 0 reads 37.18, 37.98, 37.31, crossing nothing, its step 3 inside the
     window. The loop measures that step at the production profile first and is done
     (38.77, one run); without the rule it lays a 15-run box around the path's end."""
-    from demcal.campaign import loop
+    from demcal.campaign import ascent
 
     if not rule:
-        monkeypatch.setattr(loop, "_nearest_in_window", lambda *args: None)
+        monkeypatch.setattr(ascent, "_nearest_in_window", lambda *args: None)
     campaign, cal = calibrated(tmp_path, outside=38.7, curvature=40.0, hard="ac")
     second = cal.conditions[1]
     assert second.loop.status == "verified", second.loop.reason
