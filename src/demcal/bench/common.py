@@ -244,6 +244,20 @@ def sizes_for(s: Mapping[str, Any]):
     return Uniform(lo, hi)
 
 
+def insert_due(sim, inserter, template, seed) -> None:
+    """Add to ``sim`` the particles of ``template`` that ``inserter`` (a
+    :class:`~demcal.particles.insertion.Inserter`) has due now and finds room for among
+    the particles present (their bounding spheres)."""
+    if inserter.done:
+        return
+    st = sim.state
+    body_r = float(getattr(template, "bounding_radius", np.max(template.radii))) * st.scales if st.n else np.zeros(0)
+    ins = inserter(sim.time, st.positions.copy(), body_r)
+    if len(ins):
+        sim.add_particles(template, ins.positions, orientations=ins.orientations, scales=ins.scales,
+                          velocities=ins.velocities, seed=seed)
+
+
 def fill_height(n: int, template, sizes, radius: float, b_max: float) -> float:
     """Height [m] to insert ``n`` particles into at random in a cylinder of ``radius`` [m]:
     their bounding spheres (``sizes`` scale factors) at 25 % solids (random insertion

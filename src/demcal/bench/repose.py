@@ -228,14 +228,7 @@ class ReposeFunnel(BenchExperiment):
                  f"outlet {2 * r_out * 1e3:.0f} mm at {h_out:.2f} m")
 
         def add():
-            if inserter.done:
-                return
-            st = sim.state
-            body_r = _bounding_radius(tpl) * st.scales if st.n else np.zeros(0)
-            ins = inserter(sim.time, st.positions.copy(), body_r)
-            if len(ins):
-                sim.add_particles(tpl, ins.positions, orientations=ins.orientations, scales=ins.scales,
-                                  velocities=ins.velocities, seed=seed)
+            C.insert_due(sim, inserter, tpl, seed)
 
         add()
         settle = C.rest(float(s["time.rest_speed"]))

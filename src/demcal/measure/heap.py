@@ -284,6 +284,12 @@ def _envelope(u, z, r, pixel):
     return (col[starts] + 0.5) * pixel, np.maximum.reduceat(top, starts)
 
 
+def upper_envelope(u, z, r, pixel):
+    """The top outline of discs at ``u`` (projected position), ``z`` (height), radii
+    ``r``: ``(column centres, top height)`` at columns ``pixel`` wide."""
+    return _envelope(u, z, r, pixel)
+
+
 def silhouette(u, z, r, pixel, base_z=0.0):
     """Boolean raster of the projected discs (rows from ``base_z`` up) and its extent
     ``(u_min, u_max, z_min, z_max)``; for pictures."""
