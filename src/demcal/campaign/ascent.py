@@ -177,7 +177,6 @@ def read_path(campaign, condition, path: SteepestPath, done: Sequence[RunRecord]
                                for f, v in zip(campaign.factors, box.to_actual(points[-1]))}))
     crossing, bracket = _crossing(path, ys)
     nearest = None  # the step to verify when the path crosses nothing (_nearest_in_window)
-    peak = len(points) - 1  # the step the new box is laid around when the path crosses nothing
     crossed = crossing is not None
     if crossing is None:
         if _at_limit(path) or len(points) < cfg.path_points + 1:
@@ -187,10 +186,9 @@ def read_path(campaign, condition, path: SteepestPath, done: Sequence[RunRecord]
             end = end_in_reach(campaign, condition, path, ys, measured, limits, cfg, reason)
             return (OUT_OF_REACH, reason) if end is None else end
         nearest = _nearest_in_window(condition, path.model.response, sign, ys, cfg)
-        peak = _peak(sign, ys) if nearest is None else nearest
-        if peak == 0:
+        if nearest is None and _gains_nothing(path, ys):
             return OUT_OF_REACH, _peaks_in_box(path, ys)
-        crossing = points[peak]
+        crossing = points[-1]
     point = None
     if bracket is not None and not np.all(np.abs(crossing) <= 1 + INSIDE_TOL):
         below, i, frac = bracket
@@ -199,9 +197,7 @@ def read_path(campaign, condition, path: SteepestPath, done: Sequence[RunRecord]
         steps = (ks[below], ks[i])
     if np.all(np.abs(crossing) <= 1 + INSIDE_TOL):  # no further than the box itself
         crossing = points[-1]
-    how = ("crossed it near " if crossed else
-           "ran its length toward it without crossing it, ending near " if peak == len(points) - 1
-           else f"crossed nothing and read furthest toward it at step {ks[peak]}, near ")
+    how = "crossed it near " if crossed else "ran its length toward it without crossing it, ending near "
     moved = _moved_box(campaign, path, crossing, limits, moves, how)
     response = path.model.response
     if point is None:
@@ -221,13 +217,15 @@ def _at_limit(path: SteepestPath) -> bool:
 
 
 def _peaks_in_box(path: SteepestPath, ys) -> str:
-    """Why no box is laid beyond a box whose path reads worse at every step than its edge."""
+    """Why no box is laid beyond a box whose path reads no further toward the target than
+    the box itself reaches (:func:`_gains_nothing`)."""
     box, sign = path.box, path.sign
+    edge = path.hi if sign > 0 else path.lo
     return (f"{path.model.response} = {path.target:g}: the path of steepest {path.way} from box {box.index} "
-            f"reads {'lower' if sign > 0 else 'higher'} at every step beyond the box "
-            f"({', '.join(f'{y:.2f}' for y in ys[1:])}) than box {box.index}'s model at "
-            f"its edge ({ys[0]:.2f}): the response peaks in box {box.index}, so no box is "
-            f"laid beyond it and the target lies beyond what the test reaches")
+            f"reads {', '.join(f'{y:.2f}' for y in ys[1:] if np.isfinite(y))} beyond the box, no "
+            f"{'higher' if sign > 0 else 'lower'} than box {box.index} reaches itself ({edge:.2f}): the "
+            f"response peaks in box {box.index}, so no box is laid beyond it and the target lies beyond "
+            f"what the test reaches")
 
 
 def _moved_box(campaign, path: SteepestPath, crossing, limits: np.ndarray, moves: int, how: str) -> Box:
@@ -243,24 +241,21 @@ def _moved_box(campaign, path: SteepestPath, crossing, limits: np.ndarray, moves
                        + show({f.parameter: significant(c, 3) for f, c in zip(campaign.factors, centre)})))
 
 
-def _peak(sign: float, ys) -> int:
-    """The path step read furthest toward the target (``ys[0]``: box's model at step 1;
-    the later ones simulated, unread ones skipped), the earliest of equal readings.
+def _gains_nothing(path: SteepestPath, ys) -> bool:
+    """Whether no simulated step of the path reads further toward the target than the
+    box itself reaches (its model's reach ``path.hi`` on an ascent, ``path.lo`` on a
+    descent; ``ys[0]`` is the model at step 1 and does not count).
 
-    A path that crosses nothing is followed, as in the classic method, only as far as
-    its response keeps rising (falling, on a descent): the next design goes around the
-    best step, not around a path's end that reads further from the target (Montgomery,
-    *Design and Analysis of Experiments*, 8th ed., §11.2: "experiments are conducted
-    along the path ... until no further increase in response is observed"). Step 0 is
-    the box's own edge: a path whose every simulated step reads worse than the box's
-    model there has found the response's peak inside the box. (The demo's quick
+    The classic method follows a path only while its response keeps rising (Montgomery,
+    *Design and Analysis of Experiments*, 8th ed., §11.2: experiments are run along the
+    path "until no further increase in response is observed"); a path that finds nothing
+    beyond what its box already reaches has found the response's peak in that box, and
+    a box laid at its end would be laid where the response is lower. (The demo's quick
     14.1 % repose path from box 0, whose model reaches 38.25 deg, read 37.10, 34.36 and
-    31.10 deg at steps 2-4.)"""
-    best, at = -math.inf, 0
-    for i, y in enumerate(ys):
-        if np.isfinite(y) and sign * y > best:
-            best, at = sign * y, i
-    return at
+    31.10 deg at steps 2-4; the loop laid a 29-run box at step 4, 28 Nov 2026.)"""
+    edge = path.hi if path.sign > 0 else path.lo
+    read = [path.sign * y for y in ys[1:] if np.isfinite(y)]
+    return bool(read) and max(read) <= path.sign * edge
 
 
 def _nearest_in_window(condition, response: str, sign: float, ys, cfg) -> int | None:

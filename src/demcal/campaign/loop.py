@@ -31,9 +31,9 @@ boxes' designs, production runs -- carries those settings:
    half-widths), and every earlier cheap design or path run inside the new box is
    fitted with it. Where two path points bracket the target, the crossing is
    verified first (``verify_on_path``) and the box is laid only if it misses. A path
-   that crosses nothing lays its box around the step read furthest toward the target
-   (:func:`demcal.campaign.ascent._peak`), and none where every step reads worse than
-   the box's own edge. When the path ends at the limits without crossing, the
+   that crosses nothing lays its box around its end, and none where no step reads
+   further toward the target than the box itself reaches
+   (:func:`demcal.campaign.ascent._gains_nothing`). When the path ends at the limits without crossing, the
    condition stops: the target is out of the test's reach, unless the lab window lies
    within the noise of the path's best point, which is then measured at the production
    profile first (verified there, or out of reach with that figure:
