@@ -782,3 +782,15 @@ def test_a_path_that_falls_from_the_box_edge_lays_no_box(tmp_path, outside, veri
         assert "the response peaks in box 0" in second.loop.reason
     again = calibrate(campaign, simulate=False, progress=False).conditions[1]  # replayed: the same
     assert again.loop.status == second.loop.status and again.chosen == second.chosen
+
+
+@pytest.mark.parametrize("extra, limit", [("", 0.95), ("hard_high = 0.99\n", 0.99), ("hard_high = 0.8\n", 0.8)])
+def test_restitution_stops_below_one_unless_the_factor_says_otherwise(tmp_path, extra, limit):
+    """A path or a moved box takes restitution up to 0.95 at most (a granular material's
+    restitution lies well below 1), or to the factor's own hard_high."""
+    from demcal.campaign.box import physical_limits
+
+    text = write(tmp_path).read_text().replace('parameter = "particle.restitution"\nlow = 0.5\nhigh = 0.7\n',
+                                                'parameter = "particle.restitution"\nlow = 0.5\nhigh = 0.7\n' + extra)
+    campaign = parse_campaign(text, tmp_path / "loop.toml")
+    assert physical_limits(campaign, "tiny")[0, 1] == pytest.approx(limit)

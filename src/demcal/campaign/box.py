@@ -75,9 +75,18 @@ def clean(values, limits: np.ndarray) -> np.ndarray:
     return np.clip(np.round(np.asarray(values, float), 10), limits[:, 0], limits[:, 1]) + 0.0
 
 
+#: The highest coefficient of restitution a path or a moved box may reach unless the
+#: factor's ``hard_high`` (or its own design level) says otherwise: demcal's choice. A
+#: granular material's restitution lies well below 1 (soils and grains 0.3-0.7, glass
+#: and steel beads 0.9-0.95), and at 1 the bed never comes to rest (a loop once pushed
+#: an own-material calibration to e = 1).
+RESTITUTION_MAX = 0.95
+
+
 def physical_limits(campaign: Campaign, profile: str) -> np.ndarray:
     """``(k, 2)`` limits of each factor in actual units: the bench setting's range,
-    restitution in (0, 1], and the factor's ``hard_low`` / ``hard_high``."""
+    restitution in (0, :data:`RESTITUTION_MAX`] (up to 1 where ``hard_high`` or the
+    factor's high level asks for more), and the factor's ``hard_low`` / ``hard_high``."""
     from demcal.bench.registry import get_experiment
 
     table = get_experiment(campaign.test).settings(profile)
@@ -87,7 +96,8 @@ def physical_limits(campaign: Campaign, profile: str) -> np.ndarray:
         lo = -math.inf if setting.low is None else float(setting.low)
         hi = math.inf if setting.high is None else float(setting.high)
         if "restitution" in f.parameter.rsplit(".", 1)[-1]:
-            lo, hi = max(lo, 1e-3), min(hi, 1.0)
+            own = max(f.high, f.hard_high if f.hard_high is not None else RESTITUTION_MAX)
+            lo, hi = max(lo, 1e-3), min(hi, 1.0, max(RESTITUTION_MAX, own))
         if f.hard_low is not None:
             lo = max(lo, f.hard_low)
         if f.hard_high is not None:

@@ -23,7 +23,8 @@ boxes' designs, production runs -- carries those settings:
    moves one half-width per step (Montgomery, *Design and Analysis of Experiments*,
    §11.2; Myers, Montgomery & Anderson-Cook, *Response Surface Methodology*, ch. 5).
    Each parameter stays inside its physical limits (the bench setting's range,
-   restitution in (0, 1], and the factor's ``hard_low`` / ``hard_high``); a factor at
+   restitution in (0, 0.95] unless ``hard_high`` says more, and the factor's ``hard_low`` /
+   ``hard_high``); a factor at
    its limit stops moving and the others go on (the projected path). Points beyond the
    box edge are simulated at the cheap profile; where the simulated response, read at
    the production profile (the discrepancy at each point added), crosses the target,
