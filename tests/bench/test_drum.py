@@ -56,6 +56,7 @@ def test_bad_drum_is_one_sentence(override, words):
         get_experiment("drum").run(override, seed=1, profile="tiny")
 
 
+@pytest.mark.slow  # two tiny drum runs, about a minute: make test-slow
 def test_frictionless_bed_holds_no_angle_and_friction_raises_it():
     """At the tiny profile (seed 1): frictionless, non-rolling particles on frictionless
     walls flow flat (under 5 deg); with the paper's friction the bed stands at a
