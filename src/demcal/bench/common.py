@@ -244,6 +244,12 @@ def sizes_for(s: Mapping[str, Any]):
     return Uniform(lo, hi)
 
 
+def bounding_radius(template) -> float:
+    """The radius [m] of the sphere about its centre of mass that holds ``template`` at
+    scale 1 (its largest sphere's radius where it gives none)."""
+    return float(getattr(template, "bounding_radius", np.max(template.radii)))
+
+
 def insert_due(sim, inserter, template, seed) -> None:
     """Add to ``sim`` the particles of ``template`` that ``inserter`` (a
     :class:`~demcal.particles.insertion.Inserter`) has due now and finds room for among
@@ -251,7 +257,7 @@ def insert_due(sim, inserter, template, seed) -> None:
     if inserter.done:
         return
     st = sim.state
-    body_r = float(getattr(template, "bounding_radius", np.max(template.radii))) * st.scales if st.n else np.zeros(0)
+    body_r = bounding_radius(template) * st.scales if st.n else np.zeros(0)
     ins = inserter(sim.time, st.positions.copy(), body_r)
     if len(ins):
         sim.add_particles(template, ins.positions, orientations=ins.orientations, scales=ins.scales,

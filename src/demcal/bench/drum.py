@@ -49,10 +49,6 @@ from demcal.measure.drum import froude, plot_surface, regime, surface_angle
 BED_SOLIDS = 0.55
 
 
-def _bounding_radius(template) -> float:
-    return float(getattr(template, "bounding_radius", np.max(template.radii)))
-
-
 class Drum(BenchExperiment):
     name = "drum"
     description = ("dynamic angle of repose in a rotating drum: a closed drum partly filled turns "
@@ -87,7 +83,7 @@ class Drum(BenchExperiment):
         from demcal.particles.materials import steel
 
         tpl, sizes = C.template_for(s), C.sizes_for(s)
-        b_max = _bounding_radius(tpl) * sizes.max_scale
+        b_max = C.bounding_radius(tpl) * sizes.max_scale
         radius, width = 0.5 * float(s["geometry.drum_diameter"]), float(s["geometry.drum_width"])
         fill, rpm = float(s["geometry.fill"]), float(s["drum.rpm"])
         fr = froude(rpm, radius)

@@ -92,10 +92,6 @@ def _cone_radius(volume: float, angle_deg: float) -> float:
     return (3.0 * volume / (math.pi * math.tan(math.radians(angle_deg)))) ** (1.0 / 3.0)
 
 
-def _bounding_radius(template) -> float:
-    return float(getattr(template, "bounding_radius", np.max(template.radii)))
-
-
 def _platform(s):
     """What both tests derive first: scale, template, sizes, count, plate radius [m] and
     the largest bounding radius [m]."""
@@ -104,7 +100,7 @@ def _platform(s):
     sizes = C.sizes_for(s)
     n = C.count_of(s)
     r_plate = 0.5 * k * s["geometry.plate_diameter"]
-    return k, tpl, sizes, n, r_plate, _bounding_radius(tpl) * sizes.max_scale
+    return k, tpl, sizes, n, r_plate, C.bounding_radius(tpl) * sizes.max_scale
 
 
 def _check_plate(tpl, sizes, n, k, r_plate) -> float:

@@ -76,10 +76,11 @@ def clean(values, limits: np.ndarray) -> np.ndarray:
 
 
 #: The highest coefficient of restitution a path or a moved box may reach unless the
-#: factor's ``hard_high`` (or its own design level) says otherwise: demcal's choice. A
-#: granular material's restitution lies well below 1 (soils and grains 0.3-0.7, glass
-#: and steel beads 0.9-0.95), and at 1 the bed never comes to rest (a loop once pushed
-#: an own-material calibration to e = 1).
+#: factor's ``hard_high`` (or its own design level) says otherwise: demcal's choice, a
+#: bound and not a fitted value. Restitution 1 is a perfectly elastic contact, on which
+#: a bed never comes to rest; a calibrated material's restitution lies below it (the
+#: paper's Table 2 range for the soil is 0.5-0.7), and a loop with no upper hard limit
+#: once pushed an own-material calibration to e = 1.
 RESTITUTION_MAX = 0.95
 
 

@@ -88,7 +88,7 @@ def plot_surface(fit: SurfaceFit, positions, radii, drum_radius: float, path, ti
     from matplotlib.figure import Figure
     from matplotlib.patches import Circle
 
-    from demcal._files import write_atomic
+    from demcal._files import save_figure
 
     fig = Figure(figsize=(4.5, 4.5))
     ax = fig.add_subplot()
@@ -103,8 +103,4 @@ def plot_surface(fit: SurfaceFit, positions, radii, drum_radius: float, path, ti
     ax.legend(loc="upper right")
     if title:
         ax.set_title(title)
-    import io
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    write_atomic(path, buf.getvalue())
+    save_figure(fig, path, dpi=110)
