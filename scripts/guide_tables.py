@@ -65,6 +65,11 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("experiment", "settings"): "table `KEY = VALUE` of the test's settings fixed for every run "
                                 "(`demcal bench TEST --help`; a key may not also be a factor). "
                                 "Write dotted keys in quotes: `\"particle.density\" = 2600`.",
+    ("experiment", "sieve"): "a sample (table key) of the `[campaign] lab` file whose sieve table "
+                             "the particles follow: sets `particles.sizes = \"sieve\"`, "
+                             "`particles.sieve_mm` and `particles.sieve_percent` for every run; "
+                             "choose `particles.coarse_grain` and the window `particles.size_min_mm` "
+                             "/ `size_max_mm` in `[experiment.settings]` (\"Your own particles\").",
     ("factors[]", "name"): "short name used in the model's equation (`A`, `B`, ...); default the "
                            "next letter. A letter followed by letters, digits or `_`.",
     ("factors[]", "parameter"): "**required**. The setting the factor drives, e.g. "
@@ -223,7 +228,7 @@ LAB_KEYS = {
     "sieve": {
         "edges_mm": "class bounds [mm], increasing, one more than the classes; the first may be "
                     "0 (\"< d\"), the last `inf` (\">= d\").",
-        "mass_percent": "mass of each class [%]; sums to 100 within 2 %.",
+        "mass_percent": "mass of each class [%]; sums to 100 within 0.5 %.",
     },
     "repose": {
         "mean_deg": "the angle [deg] when given (then no `photos`).",

@@ -66,10 +66,10 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from demcal.bench.registry import Setting
+from demcal.bench.registry import Setting, listed_numbers
 from demcal.dem.contact.registry import preset_names, rolling_names
 from demcal.dem.contact.table import coefficient_names, declared_coefficient
-from demcal.errors import ConfigError
+from demcal.errors import ConfigError, DataError
 from demcal.geometry.motion import Motion
 
 PROFILES = ("tiny", "quick", "paper")
@@ -79,7 +79,9 @@ MEDIUM = "medium"
 #: the contact-model presets and rolling models the engine declares
 CONTACT_MODELS = preset_names()
 ROLLING_MODELS = rolling_names()
-SHAPES = ("two-sphere", "sphere")
+SHAPES = ("two-sphere", "sphere", "clump")
+#: How particle sizes are drawn: scale factors on the template, or a sieve table.
+SIZES = ("scale", "sieve")
 
 #: Gravitational acceleration [m/s2].
 G = 9.81
@@ -184,13 +186,39 @@ def particle_settings(profile: str, count: int) -> list[Setting]:
     return [
         Setting("particles.count", count, "-", "number of particles", 1, 1_000_000),
         Setting("particles.shape", "two-sphere", "-",
-                "particle shape: the paper's 4 mm + 5 mm two-sphere unit, or a 4.5 mm sphere",
+                "particle shape: the paper's 4 mm + 5 mm two-sphere unit, a 4.5 mm sphere, or a clump "
+                "(particles.clump_mm)",
                 choices=SHAPES),
         Setting("particles.centre_distance", 0.007, "m",
                 "distance between the two spheres' centres of the two-sphere unit (our choice; the "
                 "paper gives none: 7 mm, aspect ratio 1.6)", 0.0, 0.0085),
+        Setting("particles.clump_mm", "", "mm",
+                "a clump's spheres for particles.shape = clump: x, y, z, radius of each [mm] at "
+                "scale 1", listed=True, inert=True),
         Setting("particles.scale_min", 0.5, "-", "smallest size factor (paper: 0.5)", 0.05, 10.0),
         Setting("particles.scale_max", 1.5, "-", "largest size factor (paper: 1.5)", 0.05, 10.0),
+        Setting("particles.sizes", "scale", "-",
+                "how sizes are drawn: scale (a factor uniform in particles.scale_min..scale_max, "
+                "the paper's) or sieve (particles.sieve_mm and sieve_percent, coarse-grained)",
+                choices=SIZES, inert=True),
+        Setting("particles.sieve_mm", "", "mm",
+                "sieve class bounds [mm] as the lab file gives them (the first may be 0, the last "
+                "inf)", listed=True, inert=True),
+        Setting("particles.sieve_percent", "", "%", "mass of each sieve class [%], summing to 100",
+                listed=True, inert=True),
+        Setting("particles.count_by", "number", "-",
+                "number: particles.count particles; volume: as many particles as fill the solid "
+                "volume of particles.count of the paper's units (a heap keeps its size when the "
+                "sizes change)", choices=("number", "volume"), inert=True),
+        Setting("particles.coarse_grain", 1.0, "-",
+                "coarse-graining factor c: a lab particle of size D is simulated at c D (sieve "
+                "sizes)", 0.01, 1000.0, inert=True),
+        Setting("particles.size_min_mm", 0.0, "mm",
+                "smallest lab size simulated, finer mass left out (0: the sieve's first bound "
+                "above 0)", 0.0, 1e4, inert=True),
+        Setting("particles.size_max_mm", 0.0, "mm",
+                "largest lab size simulated (0: the sieve's top bound; an open top class >= d "
+                "counts as d to 2 d)", 0.0, 1e4, inert=True),
     ]
 
 
@@ -228,20 +256,66 @@ def table(settings: list[Setting]) -> dict[str, Setting]:
 
 def template_for(s: Mapping[str, Any]):
     """The particle template at scale 1 (the engine scales it per particle)."""
-    from demcal.particles.templates import sphere, two_sphere_paper
+    from demcal.particles.templates import ParticleTemplate, sphere, two_sphere_paper
 
-    if s["particles.shape"] == "sphere":
+    shape = s["particles.shape"]
+    if shape == "sphere":
         return sphere(0.0045, name="sphere")
+    if shape == "clump":
+        numbers = listed_numbers(s.get("particles.clump_mm", ""))
+        if not numbers or len(numbers) % 4:
+            raise ConfigError("particles.shape = clump needs particles.clump_mm: x, y, z, radius [mm] "
+                              f"of each sphere, four numbers a sphere (got {len(numbers)} numbers).")
+        return ParticleTemplate.from_spheres(np.reshape(numbers, (-1, 4)) * 1e-3, name="clump")
     return two_sphere_paper(offset=float(s.get("particles.centre_distance", 0.007)))
 
 
-def sizes_for(s: Mapping[str, Any]):
+def sizes_for(s: Mapping[str, Any], template=None):
+    """The size distribution of the settings ``s`` as scale factors on ``template`` (the
+    settings' own when None): the paper's uniform factors, or a coarse-grained sieve
+    table (:func:`sieve_for`)."""
     from demcal.particles.sizes import Uniform
 
+    if s.get("particles.sizes", "scale") == "sieve":
+        return sieve_for(s, template if template is not None else template_for(s)).distribution
     lo, hi = float(s["particles.scale_min"]), float(s["particles.scale_max"])
     if hi < lo:
         raise ConfigError(f"particles.scale_max ({hi}) must be >= particles.scale_min ({lo}).")
     return Uniform(lo, hi)
+
+
+def sieve_for(s: Mapping[str, Any], template):
+    """The settings' sieve table as simulated sizes
+    (:class:`~demcal.particles.sizes.ScaledSieve`): a lab particle of sieve size D is the
+    ``template`` scaled so that its volume-equivalent diameter is ``particles.coarse_grain``
+    x D."""
+    from demcal.measure.lab import SieveTable
+    from demcal.particles.sizes import scaled_sieve
+
+    edges = listed_numbers(s.get("particles.sieve_mm", ""))
+    percent = listed_numbers(s.get("particles.sieve_percent", ""))
+    if not edges or not percent:
+        raise ConfigError("particles.sizes = sieve needs particles.sieve_mm and "
+                          "particles.sieve_percent (a lab file's sieve edges_mm and mass_percent), "
+                          "or a campaign's [experiment] sieve = SAMPLE.")
+    try:
+        table = SieveTable(edges, percent)
+    except DataError as exc:
+        raise ConfigError(f"particles.sieve_mm / particles.sieve_percent: {exc}") from None
+    return scaled_sieve(table.edges_mm, table.mass_percent, 2.0 * template.equivalent_radius,
+                        float(s.get("particles.coarse_grain", 1.0)),
+                        float(s.get("particles.size_min_mm", 0.0)), float(s.get("particles.size_max_mm", 0.0)))
+
+
+def size_advice(s: Mapping[str, Any], shrink: float | None = None) -> str:
+    """What to lower when the largest particle is too big for an opening, and to what when
+    the largest must shrink by the factor ``shrink`` (< 1)."""
+    if s.get("particles.sizes", "scale") == "sieve":
+        c = float(s.get("particles.coarse_grain", 1.0))
+        to = f" to {c * shrink:.3g} or less" if shrink else ""
+        return f"lower particles.coarse_grain{to} (now {c:g}) or particles.size_max_mm"
+    to = f" to {float(s['particles.scale_max']) * shrink:.3g} or less" if shrink else ""
+    return f"lower particles.scale_max{to}"
 
 
 def bounding_radius(template) -> float:
@@ -296,11 +370,28 @@ def interaction(s: Mapping[str, Any], prefix: str, stiffness_key: str | None = N
                        stiffness_factor=xi, **others)
 
 
-def count_of(s: Mapping[str, Any]) -> int:
+def count_of(s: Mapping[str, Any], template=None, sizes=None) -> int:
+    """The number of particles to simulate: ``particles.count``, or with
+    ``particles.count_by = volume`` as many ``template`` particles of ``sizes`` as fill the
+    solid volume of ``particles.count`` of the paper's units at its sizes
+    (:func:`paper_volume`), so that a bed or heap keeps its size when the sizes change."""
     n = s["particles.count"]
     if float(n) != int(n):
         raise ConfigError(f"particles.count must be a whole number, got {n}.")
-    return int(n)
+    if s.get("particles.count_by", "number") != "volume":
+        return int(n)
+    if template is None or sizes is None:
+        template, sizes = template_for(s), sizes_for(s)
+    return max(1, int(round(int(n) * paper_volume() / (template.volume * sizes.mean_cube()))))
+
+
+def paper_volume() -> float:
+    """Mean solid volume [m3] of the paper's particle: its two-sphere unit at scale
+    factors uniform in 0.5-1.5."""
+    from demcal.particles.sizes import paper_sizes
+    from demcal.particles.templates import two_sphere_paper
+
+    return float(two_sphere_paper().volume * paper_sizes().mean_cube())
 
 
 # ------------------------------------------------------------------------- simulation --

@@ -82,7 +82,8 @@ class Drum(BenchExperiment):
         from demcal.particles.insertion import BoxRegion, Inserter
         from demcal.particles.materials import steel
 
-        tpl, sizes = C.template_for(s), C.sizes_for(s)
+        tpl = C.template_for(s)
+        sizes = C.sizes_for(s, tpl)
         b_max = C.bounding_radius(tpl) * sizes.max_scale
         radius, width = 0.5 * float(s["geometry.drum_diameter"]), float(s["geometry.drum_width"])
         fill, rpm = float(s["geometry.fill"]), float(s["drum.rpm"])
@@ -95,8 +96,8 @@ class Drum(BenchExperiment):
                               f"(Froude number {fr:.2f} >= 1): no surface to measure; lower drum.rpm.")
         if width < 4.0 * b_max:
             raise ConfigError(f"the drum ({width * 1e3:.0f} mm wide) is narrower than two of the largest "
-                              f"particles ({2 * b_max * 1e3:.0f} mm): raise geometry.drum_width or lower "
-                              "particles.scale_max.")
+                              f"particles ({2 * b_max * 1e3:.0f} mm): raise geometry.drum_width or "
+                              f"{C.size_advice(s, width / (4.0 * b_max))}.")
         bed = fill * math.pi * radius ** 2 * width * BED_SOLIDS
         n = int(round(bed / (tpl.volume * sizes.mean_cube())))
         if n < 10:

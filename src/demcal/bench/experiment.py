@@ -159,6 +159,13 @@ class BenchExperiment:
     def resolve(self, settings: Mapping[str, Any] | None, profile: str) -> dict[str, Any]:
         return resolve_settings(self, settings, profile)
 
+    def check(self, s: Mapping[str, Any]) -> None:
+        """Refuse resolved settings ``s`` that cannot run, in one sentence, before any
+        simulation is built (a campaign calls it when it loads); the base checks the
+        particle sizes, a test its geometry too."""
+        if "particles.sizes" in s:
+            C.sizes_for(s)
+
     def build(self, s: Mapping[str, Any], seed: int, out_dir, vtk: bool, progress) -> Setup:
         """The simulation and its phases for resolved settings ``s`` and ``seed``."""
         raise NotImplementedError  # pragma: no cover - abstract

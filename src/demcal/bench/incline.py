@@ -211,14 +211,15 @@ class Incline(BenchExperiment):
             container = None
         else:
             tpl = C.template_for(s)
-            sizes = C.sizes_for(s)
-            n = C.count_of(s)
+            sizes = C.sizes_for(s, tpl)
+            n = C.count_of(s, tpl, sizes)
             b_max = float(tpl.bounding_radius) * sizes.max_scale
             r_c = 0.5 * k * float(s["geometry.container_diameter"])
             if 2 * r_c < 4 * 2 * b_max:
                 raise ConfigError(
                     f"the container ({2 * r_c * 1e3:.0f} mm at scale {k:g}) is narrower than four of the "
-                    f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.container_diameter.")
+                    f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.container_diameter or "
+                    f"{C.size_advice(s, 2 * r_c / (4 * 2 * b_max))}.")
             fill_h = C.fill_height(n, tpl, sizes, 0.98 * r_c, b_max)
             gap = 0.1 * float(np.min(tpl.radii)) * sizes.min_scale
             container = Cylinder(base=(0, 0, gap), axis=(0, 0, 1), radius=r_c, length=fill_h + 2 * b_max,

@@ -34,6 +34,13 @@ class Setting:
     low: float | None = None  #: smallest allowed value (inclusive), if any
     high: float | None = None  #: largest allowed value (inclusive), if any
     choices: tuple[str, ...] = ()  #: allowed values of a text setting, if restricted
+    #: a list of numbers (a sieve table, a clump's spheres): given as a list or as text,
+    #: kept as canonical text ``"0.0, 0.5, inf"`` (:func:`number_list`); ``""`` is none
+    listed: bool = False
+    #: at its default the run is what it was before the setting existed (an option left
+    #: off): the campaign hash (:mod:`demcal.campaign.digest`) leaves it out then, so that a
+    #: new option does not make existing calibrations out of date
+    inert: bool = False
 
 
 @dataclass(frozen=True)
@@ -155,7 +162,9 @@ def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None
                 f"`demcal bench {experiment.name} --help` lists them."
             )
         spec = table[key]
-        if isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool):
+        if spec.listed:
+            value = number_list(spec, value)
+        elif isinstance(spec.default, (int, float)) and not isinstance(spec.default, bool):
             value = _number(spec, value)
         elif spec.choices and str(value) not in spec.choices:
             raise ConfigError(
@@ -167,6 +176,46 @@ def resolve_settings(experiment: Experiment, overrides: Mapping[str, Any] | None
         if problem:
             raise ConfigError(problem)
     return resolved
+
+
+def number_list(spec: Setting, value: Any) -> str:
+    """A listed setting's ``value`` (a list of numbers, nested lists of them, or text of
+    numbers split by commas or spaces) as canonical text: each number's ``repr``, joined by
+    ``", "``; ``""`` for none. One sentence for anything that is not a finite number
+    (``inf`` is allowed: a sieve's open top class)."""
+    if isinstance(value, str):
+        items = value.replace(",", " ").split()
+    elif isinstance(value, (list, tuple)):
+        items = list(_flatten(value))
+    else:
+        raise ConfigError(f"setting '{spec.key}' must be a list of numbers [{spec.unit}], got {value!r}.")
+    numbers = []
+    for item in items:
+        try:
+            if isinstance(item, bool):
+                raise TypeError
+            x = float(item)
+        except (TypeError, ValueError, OverflowError):
+            raise ConfigError(f"setting '{spec.key}' must be a list of numbers [{spec.unit}], got "
+                              f"{item!r} in it.") from None
+        if math.isnan(x) or x == -math.inf:
+            raise ConfigError(f"setting '{spec.key}' holds {item!r}; give numbers (inf only for an "
+                              "open top class).")
+        numbers.append(x)
+    return ", ".join(repr(x) for x in numbers)
+
+
+def _flatten(value):
+    for item in value:
+        if isinstance(item, (list, tuple)):
+            yield from _flatten(item)
+        else:
+            yield item
+
+
+def listed_numbers(text: str) -> list[float]:
+    """The numbers of a listed setting's canonical text (:func:`number_list`)."""
+    return [float(x) for x in str(text).replace(",", " ").split()]
 
 
 def _allowed(spec: Setting) -> str:

@@ -22,7 +22,8 @@ plate 250 mm across; a funnel with a 25 mm outlet, a 100 mm rim and a 50 mm high
 (wall 53 deg from horizontal); the outlet ``geometry.outlet_height`` above the plate.
 Every length is multiplied by ``geometry.scale`` (default 4, as in the paper); the
 particles are not scaled (they are the paper's 4 mm + 5 mm two-sphere unit with size
-factors ``particles.scale_min``-``particles.scale_max``). Before running, the geometry is
+factors ``particles.scale_min``-``particles.scale_max``, or a lab sieve table with
+``particles.sizes = sieve``: :mod:`demcal.bench.common`). Before running, the geometry is
 checked against the particle count: a heap of ``particles.count`` particles at 20 deg must
 fit on the plate and one at 50 deg must stay below the outlet; the outlet must be at
 least three of the largest particles wide.
@@ -97,8 +98,8 @@ def _platform(s):
     the largest bounding radius [m]."""
     k = float(s["geometry.scale"])
     tpl = C.template_for(s)
-    sizes = C.sizes_for(s)
-    n = C.count_of(s)
+    sizes = C.sizes_for(s, tpl)
+    n = C.count_of(s, tpl, sizes)
     r_plate = 0.5 * k * s["geometry.plate_diameter"]
     return k, tpl, sizes, n, r_plate, C.bounding_radius(tpl) * sizes.max_scale
 
@@ -179,10 +180,14 @@ class ReposeFunnel(BenchExperiment):
                     "outlet height above the plate at scale 1", 0.001, 5.0),
         ])
 
-    def build(self, s, seed, out_dir, vtk, progress):
-        from demcal.geometry import Disk, Funnel, WallSet
-        from demcal.particles.insertion import CylinderRegion, Inserter
+    def check(self, s):
+        """Refuse settings whose funnel, plate or particles do not fit together, before any
+        simulation is built (a campaign calls it when it loads)."""
+        self._geometry(s)
 
+    def _geometry(self, s):
+        """Scale, template, sizes, count, plate radius, largest bounding radius, and the
+        outlet radius, rim radius, cone height and outlet height [m], each checked."""
         k, tpl, sizes, n, r_plate, b_max = _platform(s)
         r_out = 0.5 * k * s["geometry.outlet_diameter"]
         r_top = 0.5 * k * s["geometry.funnel_diameter"]
@@ -194,7 +199,7 @@ class ReposeFunnel(BenchExperiment):
             raise ConfigError(
                 f"the funnel outlet ({2 * r_out * 1e3:.0f} mm at scale {k:g}) is narrower than three of "
                 f"the largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.outlet_diameter or "
-                "geometry.scale, or lower particles.scale_max.")
+                f"geometry.scale, or {C.size_advice(s, 2 * r_out / (3 * 2 * b_max))}.")
         vol = _check_plate(tpl, sizes, n, k, r_plate)
         h50 = _cone_radius(vol, 50.0) * math.tan(math.radians(50.0))
         if h50 > h_out:
@@ -202,7 +207,13 @@ class ReposeFunnel(BenchExperiment):
                 f"the funnel outlet ({h_out:.2f} m above the plate at scale {k:g}) is too low for "
                 f"{n} particles: their heap at 50 deg would be {h50:.2f} m high; raise "
                 "geometry.outlet_height or lower particles.count.")
+        return k, tpl, sizes, n, r_plate, b_max, r_out, r_top, h_cone, h_out
 
+    def build(self, s, seed, out_dir, vtk, progress):
+        from demcal.geometry import Disk, Funnel, WallSet
+        from demcal.particles.insertion import CylinderRegion, Inserter
+
+        k, tpl, sizes, n, r_plate, b_max, r_out, r_top, h_cone, h_out = self._geometry(s)
         mats, inter = _materials(s)
         walls = WallSet([
             Disk(centre=(0, 0, 0), normal=(0, 0, 1), radius=r_plate, material=1, name="plate"),
@@ -307,17 +318,29 @@ class ReposeCylinder(BenchExperiment):
                     "cylinder lifting speed", 0.001, 10.0),
         ])
 
-    def build(self, s, seed, out_dir, vtk, progress):
-        from demcal.geometry import Cylinder, Disk, Translation, WallSet
-        from demcal.particles.insertion import CylinderRegion, insert
+    def check(self, s):
+        """Refuse settings whose cylinder, plate or particles do not fit together, before
+        any simulation is built (a campaign calls it when it loads)."""
+        self._geometry(s)
 
+    def _geometry(self, s):
+        """Scale, template, sizes, count, plate radius, largest bounding radius and
+        cylinder radius [m], each checked."""
         k, tpl, sizes, n, r_plate, b_max = _platform(s)
         r_cyl = 0.5 * k * s["geometry.cylinder_diameter"]
         if 2 * r_cyl < 4 * 2 * b_max:
             raise ConfigError(
                 f"the cylinder ({2 * r_cyl * 1e3:.0f} mm at scale {k:g}) is narrower than four of the "
-                f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.cylinder_diameter.")
+                f"largest particles ({2 * b_max * 1e3:.0f} mm): raise geometry.cylinder_diameter or "
+                f"{C.size_advice(s, 2 * r_cyl / (4 * 2 * b_max))}.")
         _check_plate(tpl, sizes, n, k, r_plate)
+        return k, tpl, sizes, n, r_plate, b_max, r_cyl
+
+    def build(self, s, seed, out_dir, vtk, progress):
+        from demcal.geometry import Cylinder, Disk, Translation, WallSet
+        from demcal.particles.insertion import CylinderRegion, insert
+
+        k, tpl, sizes, n, r_plate, b_max, r_cyl = self._geometry(s)
         fill_h = C.fill_height(n, tpl, sizes, r_cyl - 0.01 * r_cyl, b_max)
         motion = C.DrivenTranslation()
         mats, inter = _materials(s)

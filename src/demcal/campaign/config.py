@@ -204,7 +204,9 @@ class _Loader(Reader):
         design = self.design(len(factors))
         responses = self.responses(experiment)
         conditions = self.conditions(responses, factors, experiment, table, profile, upstream)
-        self.check_order(table, spec.settings, factors, conditions)
+        settings = self.fixed_settings(table, spec)
+        self.check_order(table, settings, factors, conditions)
+        self.check_runnable(experiment, profile, settings, conditions)
         runs = self.section(RunsTable, "runs")
         if runs.replicates > 1:
             self.check_runs(("runs", "replicates"), self.design_runs * runs.replicates,
@@ -216,7 +218,7 @@ class _Loader(Reader):
         self.check_seeds(runs, verification, calibration, conditions)
         return Campaign(
             path=self.path, name=meta.name, description=meta.description, test=spec.test, profile=profile,
-            plugins=spec.plugins, settings=dict(spec.settings), factors=factors, design=design,
+            plugins=spec.plugins, settings=settings, factors=factors, design=design,
             responses=responses, conditions=conditions, seed=runs.seed, replicates=runs.replicates,
             model_order=model.order, reduce_alpha=model.reduce_alpha,
             verification_replicates=verification.replicates, verification_seed=verification.seed,
@@ -346,6 +348,46 @@ class _Loader(Reader):
         for key, value in spec.settings.items():
             self.check_setting(experiment, table, profile, key, value, where + ("settings", key))
         return experiment, spec, profile
+
+    def fixed_settings(self, table, spec: ExperimentTable) -> dict:
+        """``[experiment.settings]`` with its listed values as canonical text, and the
+        sieve table of the sample ``[experiment] sieve`` names."""
+        settings = _canonical(table, spec.settings)
+        if spec.sieve is None:
+            return settings
+        where = ("experiment", "sieve")
+        given = sorted({"particles.sizes", "particles.sieve_mm", "particles.sieve_percent"} & set(settings))
+        if given:
+            raise self.error(where, f"[experiment] sieve and the setting '{given[0]}' both give the sizes; "
+                                    "keep one")
+        if "particles.sieve_mm" not in table:
+            raise self.error(where, f"{self.data['experiment'].get('test')} draws no particle sizes, so it "
+                                    "takes no sieve table; remove [experiment] sieve")
+        record = self.samples.get(spec.sieve)
+        if record is None:
+            known = ", ".join(self.samples) or "none (set [campaign] lab)"
+            raise self.error(where, f"sample '{spec.sieve}' is not in the lab file; samples: {known}")
+        if record.sieve is None:
+            raise self.error(where, f"sample '{spec.sieve}' of the lab file has no [{spec.sieve}.sieve] table; "
+                                    "add its edges_mm and mass_percent, or remove [experiment] sieve")
+        return {**settings, "particles.sizes": "sieve",
+                **_canonical(table, {"particles.sieve_mm": record.sieve.edges_mm.tolist(),
+                                     "particles.sieve_percent": record.sieve.mass_percent.tolist()})}
+
+    def check_runnable(self, experiment, profile, settings, conditions) -> None:
+        """The test's own check (sizes, geometry) of the fixed settings, per condition,
+        the factors at their defaults: refused when the file loads, not run by run."""
+        from demcal.bench.registry import resolve_settings
+
+        check = getattr(experiment, "check", None)
+        if check is None:
+            return
+        for i, condition in enumerate(conditions):
+            try:
+                check(resolve_settings(experiment, {**settings, **condition.settings}, profile))
+            except ConfigError as exc:
+                where = ("conditions", i, "settings") if condition.settings else ("experiment", "settings")
+                raise self.error(where, str(exc).rstrip(".")) from None
 
     def check_setting(self, experiment, table, profile, key, value, where) -> None:
         from demcal.bench.registry import resolve_settings
@@ -494,7 +536,7 @@ class _Loader(Reader):
                                      "it; remove it from [conditions.settings] (the design varies it)")
                 self.check_setting(experiment, table, profile, key, value, where + ("settings", key))
             conditions.append(Condition(name=spec.name, label=spec.label, targets=targets, reference=reference,
-                                        photo=spec.photo, sample=sample, settings=dict(spec.settings),
+                                        photo=spec.photo, sample=sample, settings=_canonical(table, spec.settings),
                                         upstream=self.upstream(spec.from_campaign, data, where) or upstream))
         return tuple(conditions)
 
@@ -586,6 +628,15 @@ class _Loader(Reader):
                 raise self.error(("executor", "scheduler"),
                                  f"scheduler '{config.scheduler}' is not a Dask scheduler address: {problem}")
         return config
+
+
+def _canonical(table, settings: Mapping) -> dict:
+    """``settings`` with each listed setting's value as its canonical text (a list of
+    numbers, ``inf`` among them, kept as text in stores, hashes and JSON files)."""
+    from demcal.bench.registry import number_list
+
+    return {key: number_list(table[key], value) if getattr(table.get(key), "listed", False) else value
+            for key, value in settings.items()}
 
 
 def default_workdir(name: str, path: str | Path) -> str:

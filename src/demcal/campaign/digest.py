@@ -4,7 +4,8 @@
 significant digits) of :func:`resolved_config`: every field of the campaign that decides
 what a calibration finds -- virtual test, profile, plug-ins, the *resolved* settings of
 the test (its defaults under that profile with the campaign's overrides, so a change of
-a demcal default changes the hash too), factors and their levels, design, responses,
+a demcal default changes the hash too; an option at the default that leaves it off is
+left out), factors and their levels, design, responses,
 seeds and replicates, model, conditions and their targets, verification -- and none of
 what only names or places things (file path, work folder, lab file, executor, report
 title, descriptions, labels, photos, lab records beyond their targets, published
@@ -36,8 +37,13 @@ def resolved_config(campaign) -> dict[str, Any]:
     from demcal.bench.registry import get_experiment, resolve_settings
 
     out = _plain(campaign)
-    out["settings"] = _plain(resolve_settings(get_experiment(campaign.test), campaign.settings,
-                                              campaign.profile))
+    experiment = get_experiment(campaign.test)
+    table = experiment.settings(campaign.profile)
+    resolved = resolve_settings(experiment, campaign.settings, campaign.profile)
+    # an option left off at its default decides nothing (Setting.inert): a new option
+    # does not put every existing calibration out of date
+    out["settings"] = _plain({key: value for key, value in resolved.items()
+                              if not (getattr(table[key], "inert", False) and value == table[key].default)})
     return out
 
 

@@ -174,6 +174,9 @@ class ExperimentTable:
     plugins: Names = key((), says="'{key}' must be a list of module names", check=plugin_problem,
                          doc="modules that register extra virtual tests")
     settings: Table = key({}, doc="setting overrides applied to every run")
+    sieve: str | None = key(None, doc="a lab sample whose sieve table the particles follow: sets "
+                            "particles.sizes = sieve, particles.sieve_mm and particles.sieve_percent "
+                            "for every run")
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -15,7 +15,9 @@ Layout::
                     values, "transferable" (true when the values carry over without a new
                     calibration) and the reasons when not, plus each code's own details
     particle        shape, spheres (radius, centre [m], principal frame), centre_distance,
-                    volume, size_distribution
+                    volume, size_distribution (kind "uniform": scale_min, scale_max by
+                    number; kind "sieve": classes [{scale_min, scale_max, mass_fraction}] by
+                    mass, reference_size, coarse_grain, lab_window_mm, left_out_percent)
     conditions[]    name, label,
                     lab           sample (the lab record) and targets (mean, sd)
                     fixed_settings  KEY -> value, source: every setting the condition's runs
@@ -56,6 +58,7 @@ from __future__ import annotations
 
 import json
 import math
+import numpy as np
 from typing import Any, Mapping
 
 from demcal import __version__
@@ -81,7 +84,9 @@ LOOP_STOPS = {
 
 #: Settings that describe the calibrated material (the rest belong to the virtual test).
 MATERIAL_PREFIXES = ("particle.", "wall.", "film.", "contact.", "rolling.")
-PARTICLE_KEYS = ("particles.shape", "particles.scale_min", "particles.scale_max")
+PARTICLE_KEYS = ("particles.shape", "particles.clump_mm", "particles.scale_min", "particles.scale_max",
+                 "particles.sizes", "particles.sieve_mm", "particles.sieve_percent", "particles.coarse_grain",
+                 "particles.size_min_mm", "particles.size_max_mm")
 
 #: Keys of a condition in calibration.json that the card reads; every other key is kept
 #: untouched under the condition's "calibration".
@@ -396,8 +401,9 @@ def particle(parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     from demcal.bench.common import template_for
 
     shape = _value(parameters, "particles.shape", "two-sphere")
-    template = template_for({"particles.shape": shape, "particles.centre_distance":
-                             float(_value(parameters, "particles.centre_distance", 0.007))})
+    settings = {key: _value(parameters, key) for key in PARTICLE_KEYS if key in parameters}
+    settings["particles.centre_distance"] = float(_value(parameters, "particles.centre_distance", 0.007))
+    template = template_for({**settings, "particles.shape": shape})
     spheres = [{"radius": float(r), "centre": [_nm(x) for x in c]}
                for r, c in zip(template.radii, template.centers)]
     out = {"shape": shape, "spheres": spheres,
@@ -406,6 +412,9 @@ def particle(parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
     if len(spheres) == 2:
         a, b = (s["centre"] for s in spheres)
         out["centre_distance"] = _nm(math.dist(a, b))
+    if _value(parameters, "particles.sizes", "scale") == "sieve":
+        out["size_distribution"] = _sieve_sizes(settings, template)
+        return out
     low = float(_value(parameters, "particles.scale_min", 1.0))
     high = float(_value(parameters, "particles.scale_max", 1.0))
     out["size_distribution"] = {"kind": "uniform", "basis": "number", "scale_min": low,
@@ -413,6 +422,27 @@ def particle(parameters: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
                                 "meaning": "each particle is the template scaled by a factor drawn "
                                            "uniformly in [scale_min, scale_max]"}
     return out
+
+
+def _sieve_sizes(settings: Mapping[str, Any], template) -> dict[str, Any]:
+    """The card's size distribution from a sieve table: the simulated classes as scale
+    factors on the template with their mass fractions, and what was left out."""
+    from demcal.bench.common import sieve_for
+
+    scaled = sieve_for(settings, template)
+    table = scaled.distribution
+    edges = np.asarray(table.apertures) / table.reference_size
+    classes = [{"scale_min": float(f"{a:.6g}"), "scale_max": float(f"{b:.6g}"), "mass_fraction": float(f"{w:.6g}")}
+               for a, b, w in zip(edges[:-1], edges[1:], table.mass_fractions)]
+    return {"kind": "sieve", "basis": "mass", "classes": classes,
+            "scale_min": float(f"{edges[0]:.6g}"), "scale_max": float(f"{edges[-1]:.6g}"),
+            "reference_size": _nm(table.reference_size), "coarse_grain": scaled.coarse_grain,
+            "lab_window_mm": [float(f"{x:.6g}") for x in scaled.window_mm],
+            "left_out_percent": float(f"{scaled.left_out_percent:.4g}"),
+            "meaning": "a lab particle of sieve size D is the template scaled so that its volume-"
+                       "equivalent diameter (reference_size at scale 1) is coarse_grain x D; each class "
+                       "holds its mass fraction, sizes uniform within it; the lab mass outside "
+                       "lab_window_mm (left_out_percent) is not simulated"}
 
 
 def _nm(x: float) -> float:

@@ -89,9 +89,18 @@ def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> st
                        for i, s in enumerate(part["spheres"])]))
     if "centre_distance" in part:
         lines.append(f"# distance between the sphere centres: {number(part['centre_distance'] * 1e3)} mm")
-    lines += ["", "[Size distribution]",
-              f"Factory size: Random (uniform scale), Min {number(size['scale_min'])}, Max {number(size['scale_max'])} "
-              f"(scale factor on the particle above, by number)", ""]
+    lines += ["", "[Size distribution]"]
+    if size["kind"] == "sieve":
+        lines += [f"# sieve table coarse-grained x{number(size['coarse_grain'])}: lab sizes "
+                  f"{number(size['lab_window_mm'][0])}-{number(size['lab_window_mm'][1])} mm "
+                  f"({number(size['left_out_percent'])} % of the lab mass outside them left out); "
+                  "Factory size: User Defined, by mass, the scale factors below on the particle above",
+                  _csv(["Scale min", "Scale max", "Mass (%)"],
+                       [[number(c["scale_min"]), number(c["scale_max"]), number(100 * c["mass_fraction"])]
+                        for c in size["classes"]]), ""]
+    else:
+        lines += [f"Factory size: Random (uniform scale), Min {number(size['scale_min'])}, Max "
+                  f"{number(size['scale_max'])} (scale factor on the particle above, by number)", ""]
     return "\n".join(lines)
 
 

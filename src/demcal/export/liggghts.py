@@ -174,12 +174,10 @@ def _template(card, condition, types) -> list[str]:
     spheres = part["spheres"]
     size = part["size_distribution"]
     density = condition["materials"]["particle"]["density"]
-    scales = _size_classes(size["scale_min"], size["scale_max"])
+    scales, weights, basis, said = _size_table(size)
     shape = (f"{len(spheres)} spheres, radii {' + '.join(_mm(s['radius']) for s in spheres)}"
              + (f", centres {_mm(part['centre_distance'])} apart" if "centre_distance" in part else ""))
-    lines = [f"# Particle template '{part['shape']}': {shape}; centre of mass at the origin.",
-             f"# Size: scale factor uniform in [{number(size['scale_min'])}, {number(size['scale_max'])}] by number, "
-             f"written as {len(scales)} equally likely classes (LIGGGHTS' distributions are discrete)."]
+    lines = [f"# Particle template '{part['shape']}': {shape}; centre of mass at the origin.", said]
     seeds = _primes(_FIRST_SEED, len(scales) + 1)
     ids = []
     for k, (scale, seed) in enumerate(zip(scales, seeds)):
@@ -193,11 +191,28 @@ def _template(card, condition, types) -> list[str]:
             data = " ".join(" ".join(number(x * scale) for x in (*s["centre"], s["radius"])) for s in spheres)
             lines.append(f"{head}multisphere {seed} atom_type {types['particle']} density constant "
                          f"{number(density)} nspheres {len(spheres)} ntry 1000000 spheres {data} type {k + 1}")
-    fraction = number(1.0 / len(scales))
-    pairs = " ".join(f"{fix_id} {fraction}" for fix_id in ids)
-    lines.append(f"fix {DISTRIBUTION_ID} all particledistribution/discrete/numberbased {seeds[-1]} "
+    pairs = " ".join(f"{fix_id} {number(w)}" for fix_id, w in zip(ids, weights))
+    lines.append(f"fix {DISTRIBUTION_ID} all particledistribution/discrete/{basis} {seeds[-1]} "
                  f"{len(ids)} {pairs}")
     return lines
+
+
+def _size_table(size) -> tuple[list[float], list[float], str, str]:
+    """The card's size distribution as LIGGGHTS' discrete classes: scale factors, their
+    weights, the basis (numberbased or massbased) and a comment line saying so."""
+    if size["kind"] == "sieve":
+        classes = size["classes"]
+        scales = [0.5 * (c["scale_min"] + c["scale_max"]) for c in classes]
+        weights = [c["mass_fraction"] for c in classes]
+        said = (f"# Size: sieve table, coarse-grained x{number(size['coarse_grain'])} (lab sizes "
+                f"{number(size['lab_window_mm'][0])}-{number(size['lab_window_mm'][1])} mm, "
+                f"{number(size['left_out_percent'])} % of the lab mass outside them left out), written as "
+                f"{len(classes)} classes at their middle scale by mass (LIGGGHTS' distributions are discrete).")
+        return scales, weights, "massbased", said
+    scales = _size_classes(size["scale_min"], size["scale_max"])
+    said = (f"# Size: scale factor uniform in [{number(size['scale_min'])}, {number(size['scale_max'])}] by number, "
+            f"written as {len(scales)} equally likely classes (LIGGGHTS' distributions are discrete).")
+    return scales, [1.0 / len(scales)] * len(scales), "numberbased", said
 
 
 def _size_classes(low: float, high: float) -> list[float]:

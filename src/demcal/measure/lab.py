@@ -46,7 +46,7 @@ import numpy as np
 from demcal.errors import ConfigError, DataError
 
 #: A sieve table's mass percentages must sum to 100 within this [%].
-SIEVE_SUM_TOLERANCE = 2.0
+SIEVE_SUM_TOLERANCE = 0.5
 
 
 @dataclass(frozen=True)

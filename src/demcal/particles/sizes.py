@@ -11,7 +11,9 @@ factor ``s`` multiplies all lengths of a :class:`~demcal.particles.templates.Par
 * :class:`Normal` -- normal, truncated to ``[low, high]`` (rejection sampling);
 * :class:`SieveTable` -- mass fractions retained between sieve apertures; particles are
   drawn per class in proportion to number (mass fraction / mean particle mass of the
-  class), sizes uniform within a class, and divided by a reference size.
+  class), sizes uniform within a class, and divided by a reference size;
+* :func:`scaled_sieve` -- a lab sieve table (bounds [mm], mass [%]) as simulated sizes:
+  cut to a window of lab sizes and coarse-grained by a factor.
 
 :func:`size_distribution` builds one from a plain mapping (a campaign file's table).
 """
@@ -34,6 +36,8 @@ __all__ = [
     "Normal",
     "SieveTable",
     "paper_sizes",
+    "ScaledSieve",
+    "scaled_sieve",
     "size_distribution",
     "as_generator",
 ]
@@ -240,6 +244,13 @@ class SieveTable(SizeDistribution):
         b = np.asarray(self.apertures[1:])[cls]
         return (a + (b - a) * rng.random(n)) / self.reference_size
 
+    def mean_cube(self, n=0, seed=0):
+        """E[s^3] over the number distribution, exactly."""
+        a = np.asarray(self.apertures[:-1])
+        b = np.asarray(self.apertures[1:])
+        cube = (b**4 - a**4) / (4.0 * (b - a))
+        return float(np.dot(self.number_fractions(), cube)) / float(self.reference_size) ** 3
+
     @property
     def max_scale(self):
         w = np.asarray(self.mass_fractions)
@@ -251,6 +262,71 @@ class SieveTable(SizeDistribution):
         w = np.asarray(self.mass_fractions)
         bottom = np.nonzero(w > 0)[0].min()
         return self.apertures[bottom] / self.reference_size
+
+
+@dataclass(frozen=True)
+class ScaledSieve:
+    """A lab sieve table as the simulation draws it (:func:`scaled_sieve`).
+
+    Attributes
+    ----------
+    distribution : the simulated sizes, as scale factors on the template.
+    window_mm : (low, high) the lab sizes simulated [mm]; the sample's mass outside them
+        is left out.
+    left_out_percent : the lab mass outside the window [%].
+    coarse_grain : a lab particle of size D is simulated at ``coarse_grain * D``.
+    """
+
+    distribution: SieveTable
+    window_mm: tuple
+    left_out_percent: float
+    coarse_grain: float
+
+
+def scaled_sieve(edges_mm, mass_percent, reference_size: float, coarse_grain: float = 1.0,
+                 size_min_mm: float = 0.0, size_max_mm: float = 0.0) -> ScaledSieve:
+    """The simulated size distribution of a lab sieve table.
+
+    Parameters
+    ----------
+    edges_mm, mass_percent : a checked lab table (:class:`demcal.measure.lab.SieveTable`):
+        increasing class bounds [mm], the first may be 0 and the last ``inf``; mass of each
+        class [%].
+    reference_size : the template's size [m] at scale 1 (its volume-equivalent diameter).
+    coarse_grain : every lab size D is simulated at ``coarse_grain * D``.
+    size_min_mm, size_max_mm : the window of lab sizes simulated [mm]. 0 takes the
+        defaults: from the first bound above 0 (a class from 0 has no smallest particle)
+        to the top bound; an open top class (``>= d``) is taken as d to 2 d (demcal's
+        choice: the sieve says nothing above d).
+
+    A class the window cuts keeps the part of its mass inside the window, sizes being
+    uniform within a class (as :class:`SieveTable` draws them); the mass outside is left
+    out and the rest normalised, so the simulated classes keep their mass ratios.
+    """
+    a = np.asarray(edges_mm, dtype=float)[:-1]
+    b = np.asarray(edges_mm, dtype=float)[1:].copy()
+    mass = np.asarray(mass_percent, dtype=float)
+    if not np.isfinite(b[-1]):  # the open top class ">= d" taken as d to 2 d
+        b[-1] = 2.0 * a[-1]
+    positive = np.concatenate([a, b])
+    positive = positive[positive > 0]
+    lo = float(size_min_mm) if size_min_mm else (float(positive.min()) if positive.size else 0.0)
+    hi = float(size_max_mm) if size_max_mm else float(b.max())
+    if not (0.0 < lo < hi):
+        raise ConfigError(f"the window of simulated sizes {lo:g} to {hi:g} mm is empty: give "
+                          "particles.size_min_mm below particles.size_max_mm, both above 0.")
+    c = _finite_positive(coarse_grain, "the coarse-graining factor")
+    a_in, b_in = np.clip(a, lo, hi), np.clip(b, lo, hi)
+    width = np.where(b > a, b - a, 1.0)
+    kept = mass * np.clip((b_in - a_in) / width, 0.0, 1.0)
+    if kept.sum() <= 0.0:
+        raise ConfigError(f"no sieve class holds mass between {lo:g} and {hi:g} mm: widen "
+                          "particles.size_min_mm .. particles.size_max_mm.")
+    inside = b_in > a_in  # the classes the window keeps: contiguous, as the window is
+    bounds = np.append(a_in[inside], b_in[inside][-1])
+    table = SieveTable(apertures=tuple(c * bounds * 1e-3), mass_fractions=tuple(kept[inside]),
+                       reference_size=reference_size)
+    return ScaledSieve(table, (lo, hi), float(100.0 * (1.0 - kept.sum() / mass.sum())), c)
 
 
 def paper_sizes() -> Uniform:

@@ -596,7 +596,9 @@ def _parameters_section(report: HtmlReport, cal: Calibration, n) -> None:
         shape_source = sources.get(parameters.get("particles.shape", {}).get("source"), "default")
         put("particle template", "mm", name, f"{shape['shape']}: radii {radii} mm{apart}", shape_source)
         put("size distribution", "-", name,
-            f"{sizes['kind']} size factor {sizes['scale_min']:g} to {sizes['scale_max']:g} (by {sizes['basis']})",
+            f"{sizes['kind']} size factor {sizes['scale_min']:g} to {sizes['scale_max']:g} (by {sizes['basis']})"
+            + (f": lab sizes {sizes['lab_window_mm'][0]:g}-{sizes['lab_window_mm'][1]:g} mm x{sizes['coarse_grain']:g}, "
+               f"{sizes['left_out_percent']:.3g} % of the lab mass outside them left out" if sizes["kind"] == "sieve" else ""),
             shape_source)
     report.paragraph("The complete parameter set of the calibrated material, the one `demcal export` writes to "
                      "the material card: 'calibrated' values are solved from the model (the campaign's factors), "
