@@ -224,6 +224,7 @@ LAB_KEYS = {
         "sieve": "table: the particle-size distribution (below).",
         "repose": "table: the angle of repose, given or measured from photos (below).",
         "sliding": "table: the sliding angle, given or from incline readings (below).",
+        "drum": "table: a rotating drum's dynamic angle at one or more speeds (below).",
     },
     "sieve": {
         "edges_mm": "class bounds [mm], increasing, one more than the classes; the first may be "
@@ -253,6 +254,12 @@ LAB_KEYS = {
         "H0_mm": "the same point's height above the base with the plate level [mm]; default 0, "
                  "the paper's Eq. 5 (exact only when the spindle's axis is level with that base).",
         "repeats": "readings per group (the mean of each group is one test).",
+    },
+    "drum": {
+        "rpm": "**required**. The drum speeds [1/min], each once.",
+        "mean_deg": "**required**. The dynamic angle measured at each speed [deg], one per speed.",
+        "sd_deg": "its standard deviation at each speed [deg].",
+        "n": "tests at each speed: one number for all, or one per speed.",
     },
 }
 

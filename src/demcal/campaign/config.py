@@ -548,7 +548,9 @@ class _Loader(Reader):
         if sample is not None:
             from demcal.measure.lab import resolve_targets
 
-            for response, angle in resolve_targets(sample, self.path.parent, confine=not self.allow_outside).items():
+            angles = resolve_targets(sample, self.path.parent, confine=not self.allow_outside,
+                                     drum_rpm=self.drum_rpm(spec))
+            for response, angle in angles.items():
                 if response in known and response not in given:
                     sd = angle.sd_deg if math.isfinite(angle.sd_deg) else None
                     given[response] = {"mean": angle.mean_deg} | ({"sd": sd} if sd is not None else {})
@@ -576,6 +578,12 @@ class _Loader(Reader):
                                         f"[conditions.targets] {name} = {{ mean = ..., sd = ... }} "
                                         f"or a sample whose lab record gives it")
         return tuple(targets)
+
+    def drum_rpm(self, spec: ConditionTable) -> float | None:
+        """The speed a condition's runs turn a drum at [1/min] (its own setting over the
+        campaign's), None when neither sets ``drum.rpm``."""
+        value = spec.settings.get("drum.rpm", self.data.get("experiment", {}).get("settings", {}).get("drum.rpm"))
+        return None if value is None else float(value)
 
     def reference(self, values: Mapping, factors, where: tuple) -> dict[str, float]:
         """``[conditions.reference]``: published values of the factors, by parameter."""

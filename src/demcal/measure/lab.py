@@ -28,6 +28,11 @@ Accepted table (TOML shown; every key but ``name`` is optional)::
     sd_deg = 2.6
     n = 10
     # ... or measured: H_mm = [...], L_mm = 300, repeats = 3, H0_mm = 0
+    [drum]                          # rotating drum: dynamic angle at each speed
+    rpm = [2, 5, 10]                # drum speeds [1/min]
+    mean_deg = [33.0, 35.5, 38.0]   # angle at each speed [deg]
+    sd_deg = [1.2, 1.4, 1.5]
+    n = 5                           # tests at each speed (or one number a speed)
 
 The reference paper's two samples (IJABE 2020, Table 1 and Sections 2.1 and 3.1) are in
 :func:`paper_records`.
@@ -36,6 +41,7 @@ The reference paper's two samples (IJABE 2020, Table 1 and Sections 2.1 and 3.1)
 from __future__ import annotations
 
 import glob
+import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -109,6 +115,17 @@ class SieveTable:
 
     def to_dict(self) -> dict:
         return {"edges_mm": self.edges_mm.tolist(), "mass_percent": self.mass_percent.tolist()}
+
+
+@dataclass(frozen=True)
+class DrumReading:
+    """A rotating drum's dynamic angle of repose measured in the lab at one speed."""
+
+    rpm: float  #: drum speed [1/min]
+    angle: MeasuredAngle  #: the dynamic angle [deg], mean +- sd over n tests
+
+    def to_dict(self) -> dict:
+        return {"rpm": self.rpm, **self.angle.to_dict()}
 
 
 @dataclass(frozen=True)
@@ -206,6 +223,7 @@ class LabRecord:
     sliding: MeasuredAngle | None = None
     repose_photos: PhotoSet | None = None
     incline: InclineReadings | None = None
+    drum: tuple[DrumReading, ...] = ()
     notes: str = ""
 
     @classmethod
@@ -228,7 +246,7 @@ class LabRecord:
         if not isinstance(d, Mapping):
             raise ConfigError(f"{at} must be a table of keys, not {type(d).__name__}.")
         known = {"name", "moisture_percent", "moisture_sd_percent", "bulk_density", "sieve",
-                 "repose", "sliding", "notes"}
+                 "repose", "sliding", "drum", "notes"}
         _unknown(d, known, at)
         if "name" not in d or not isinstance(d["name"], str) or not d["name"].strip():
             raise ConfigError(f"{at.key('name')} needs a 'name' (the sample's name, a string).")
@@ -255,12 +273,13 @@ class LabRecord:
         sliding = incline = None
         if "sliding" in d:
             sliding, incline = _sliding(d["sliding"], at)
+        drum = _drum(d["drum"], at) if "drum" in d else ()
         notes = d.get("notes", "")
         if not isinstance(notes, str):
             raise ConfigError(f"{at.key('notes')}: 'notes' must be a string.")
         return cls(name=d["name"].strip(), moisture_percent=moisture, moisture_sd_percent=moisture_sd,
                    bulk_density=density, sieve=sieve, repose=repose, sliding=sliding,
-                   repose_photos=photos, incline=incline, notes=notes)
+                   repose_photos=photos, incline=incline, drum=drum, notes=notes)
 
     def to_dict(self) -> dict:
         out: dict[str, Any] = {"name": self.name}
@@ -273,18 +292,23 @@ class LabRecord:
             out["repose"] = self.repose.to_dict()
         if self.sliding is not None:
             out["sliding"] = self.sliding.to_dict()
+        if self.drum:
+            out["drum"] = [reading.to_dict() for reading in self.drum]
         if self.notes:
             out["notes"] = self.notes
         return out
 
 
 def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
-                    out_dir: str | Path | None = None, confine: bool = False) -> dict[str, MeasuredAngle]:
+                    out_dir: str | Path | None = None, confine: bool = False,
+                    drum_rpm: float | None = None) -> dict[str, MeasuredAngle]:
     """The record's measured angles, measuring photos and readings where given.
 
-    Returns ``{"repose_angle_deg": ..., "sliding_angle_deg": ...}`` (the keys present
-    in the record). Photos are found relative to ``base_dir`` (and with ``confine``
-    must lie inside it); annotated PNGs go to ``out_dir``.
+    Returns ``{"repose_angle_deg": ..., "sliding_angle_deg": ..., "dynamic_angle_deg":
+    ...}`` (the keys present in the record). Photos are found relative to ``base_dir``
+    (and with ``confine`` must lie inside it); annotated PNGs go to ``out_dir``. The drum's
+    angle is the reading at ``drum_rpm`` (the speed the campaign turns its drum at), or the
+    only reading when ``drum_rpm`` is None.
 
     Raises
     ------
@@ -318,7 +342,30 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
             raise DataError(f"the inclined-plane readings of sample '{record.name}': {exc}") from None
         level = f", H0 {inc.H0_mm:g} mm" if inc.H0_mm else ""
         out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, f"incline readings{level}")
+    if record.drum:
+        out["dynamic_angle_deg"] = drum_reading(record, drum_rpm).angle
     return out
+
+
+def drum_reading(record: LabRecord, rpm: float | None) -> DrumReading:
+    """The record's drum reading at ``rpm`` [1/min] (its only one when None).
+
+    Raises
+    ------
+    DataError
+        No reading at that speed, or several readings and no speed.
+    """
+    speeds = ", ".join(f"{r.rpm:g}" for r in record.drum)
+    if rpm is None:
+        if len(record.drum) == 1:
+            return record.drum[0]
+        raise DataError(f"sample '{record.name}' has drum readings at {speeds} rpm; the campaign must "
+                        "turn its drum at one of them (set drum.rpm).")
+    for reading in record.drum:
+        if math.isclose(reading.rpm, float(rpm), rel_tol=1e-9):
+            return reading
+    raise DataError(f"sample '{record.name}' has no drum reading at {float(rpm):g} rpm, only at {speeds} rpm; "
+                    "set drum.rpm to one of them or add the reading to the lab file.")
 
 
 def _failed_photos(sample: str, failures, total: int, base_dir) -> str:
@@ -458,6 +505,34 @@ def _given_or_measured(t, at: _Place, key, source, table_text, source_text, keys
     if source not in t:
         raise ConfigError(f"{here}: give 'mean_deg' (and 'sd_deg', 'n') or {source_text}.")
     return None
+
+
+def _drum(t, at: _Place) -> tuple[DrumReading, ...]:
+    """``[NAME.drum]``: ``rpm``, ``mean_deg``, ``sd_deg`` lists of one length (one entry a
+    speed) and ``n`` (tests at each speed, one number or a list)."""
+    if not isinstance(t, Mapping):
+        raise ConfigError(f"{at.key('drum')}: 'drum' must be a table with rpm, mean_deg, sd_deg and n.")
+    here = at.sub("drum")
+    _unknown(t, {"rpm", "mean_deg", "sd_deg", "n"}, here)
+    for key in ("rpm", "mean_deg"):
+        if key not in t:
+            raise ConfigError(f"{here}: '{key}' is missing; give the drum speeds [1/min] and the angle "
+                              "measured at each [deg].")
+    rpm = _numbers(t, "rpm", here)
+    mean = _numbers(t, "mean_deg", here)
+    sd = _numbers(t, "sd_deg", here) if "sd_deg" in t else [float("nan")] * len(rpm)
+    n = t.get("n", 0)
+    n = list(n) if isinstance(n, list) else [n] * len(rpm)
+    if not rpm or not (len(rpm) == len(mean) == len(sd) == len(n)):
+        raise ConfigError(f"{here}: rpm, mean_deg, sd_deg (and n, when a list) need one entry per speed; got "
+                          f"{len(rpm)}, {len(mean)}, {len(sd)} and {len(n)}.")
+    if any(not r > 0 for r in rpm) or len(set(rpm)) != len(rpm):
+        raise ConfigError(f"{here.key('rpm')}: drum speeds must be > 0 and each given once, got {rpm}.")
+    readings = []
+    for r, m, s_, k in zip(rpm, mean, sd, n):
+        angle = _given_angle({"mean_deg": m, **({"sd_deg": s_} if math.isfinite(s_) else {}), "n": k}, here)
+        readings.append(DrumReading(r, angle))
+    return tuple(readings)
 
 
 def _repose(t, at: _Place):
