@@ -91,6 +91,13 @@ def test_unreachable_target_is_said_plainly(calibrated):
             "the parameters' physical limits: they stop the path of steepest descent from box 0 at once.") in text
     assert "outside what the model reaches inside the design box" in text
     assert "too low" in describe(cal)
+    # as a user reads it (issue 40 item 6): the response's label and unit, the record's words kept in the json
+    from demcal.campaign.wording import notes, stop
+
+    said = " ".join([stop(campaign, result)] + notes(campaign, result))
+    assert said.startswith("Out of reach: the lab's 20.0° (repose angle) lies beyond what the test reaches within "
+                           "the parameters' physical limits, which stop any path from box 0."), said
+    assert "repose_angle_deg" not in said and "lies outside what the model reaches in the design box" in said
     assert set(result.reference_predicted) == {"repose_angle_deg"}
 
 

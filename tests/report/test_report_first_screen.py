@@ -18,6 +18,7 @@ import subprocess
 import numpy as np
 import pytest
 
+from demcal.rounding import measured, ranged
 from test_report_honesty import built  # noqa: F401  (the module's fixture, built again here)
 
 BROWSER = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -56,12 +57,11 @@ def test_the_summary_holds_every_conditions_values_ranges_and_verdict(built):  #
     for result in cal.conditions:
         row = summary[summary.index(f"<b>{result.condition.name}</b>"):]
         row = row[:row.index("</tr>")]
-        for f in campaign.factors:
-            assert f"<b>{result.chosen[f.parameter]:.4g}</b>" in row
-            lo, hi = result.factor_ranges[f.parameter]
-            assert f"set {lo:.4g} to {hi:.4g}" in row
-        for v in result.verdicts:
-            assert f"lab {v.target:g} ± {v.lab_sd:g}" in row
+        for f in campaign.factors:  # to the digits the solution set's width supports (demcal.rounding)
+            value, low, high = ranged(result.chosen[f.parameter], *result.factor_ranges[f.parameter])
+            assert f"<b>{value}</b>" in row and f"set {low} to {high}" in row
+        for v in result.verdicts:  # the lab's mean to its sd's precision, with the unit
+            assert f"lab {measured(v.target, v.lab_sd, '°')}" in row
         assert result.loop.status in row  # nothing verified: the loop's word for it
     assert "Verification: Repose angle [°]" in summary
     assert "29 design runs at tiny, 29 in all" in summary

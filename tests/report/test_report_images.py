@@ -238,6 +238,9 @@ def test_side_by_side_figures_are_written_at_300_dpi(tmp_path):
 
 def test_the_summary_gives_each_conditions_simulated_mean_n_and_verdict(built):
     """Issue 40: the first screen's verdict, for conditions whose verification ran."""
+    from demcal.campaign.wording import half_width
+    from demcal.rounding import measured
+
     campaign, cal, _, page = built
     start = page.index('<section id="summary">')
     summary = html.unescape(page[start:page.index("</section>", start)])
@@ -245,8 +248,10 @@ def test_the_summary_gives_each_conditions_simulated_mean_n_and_verdict(built):
         row = summary[summary.index(f"<b>{result.condition.name}</b>"):]
         row = row[:row.index("</tr>")]
         (v,) = result.verdicts
-        assert v.simulated and f"; simulated {v.simulated_mean:.2f}" in row and f"n = {len(v.simulated)}" in row
-        assert f"lab {v.target:g} ± {v.lab_sd:g}" in row
+        # each to the precision its noise supports, with its unit (demcal.rounding)
+        simulated = measured(v.simulated_mean, half_width(result, v), "°")
+        assert v.simulated and f"; simulated {simulated} (95 %)" in row and f"n = {len(v.simulated)}" in row
+        assert f"lab {measured(v.target, v.lab_sd, '°')}" in row
         if result.loop is not None:
             assert result.loop.status in row
         else:

@@ -49,6 +49,8 @@ R2_AGREEMENT = 0.2
 LACK_OF_FIT_ALPHA = 0.05
 #: Adequate precision (signal to noise) below this cannot navigate the design space.
 MIN_ADEQUATE_PRECISION = 4.0
+#: The most production runs :func:`lab_noise_warnings` counts up to.
+MANY_RUNS = 1000
 
 
 def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str | None = None,
@@ -95,8 +97,10 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     results = _close_loops(campaign, fits, notes, simulate=simulate, workers=workers, scheduler=scheduler,
                            progress=progress, retry_failed=retry_failed, executor=executor)
     first = fits[0]
+    with Store(store_path, readonly=True) as store:
+        lab_noise = lab_noise_warnings(campaign, store.records())
     calibration = Calibration(campaign, first.table, first.full, first.models, first.removed, results, notes,
-                              warnings, designs=fits)
+                              warnings, designs=fits, lab_noise=lab_noise)
     if simulate:
         write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
     return calibration
@@ -198,6 +202,65 @@ def adequacy_warnings(campaign: Campaign, models: dict, profile: bool = True) ->
                        f"{MIN_ADEQUATE_PRECISION:g}: the model's signal is too weak against the run-to-run noise "
                        "to navigate the design space; widen the factor levels or add replicates.")
     return out
+
+
+def lab_noise_warnings(campaign: Campaign, records: list[RunRecord]) -> list[str]:
+    """One sentence for each lab target whose sd is below the simulation's seed noise.
+
+    The noise is the seed-to-seed sd of the campaign's test at its production profile, as
+    far as the store and the stored profile studies know it: every done run there pooled
+    over its points (the design's centre points, path and production replicates:
+    :func:`demcal.campaign.noise.production_noise` with every kind of run) with the
+    studies' replicated points (:func:`demcal.campaign.noise.stored_noise`). The loop
+    verifies a target once the 95 % interval of the production mean is narrower than the
+    lab sd, so a lab sd below the noise asks for about (1.96 x noise / lab sd)² runs at
+    one point (:func:`demcal.campaign.replicates.replicates_needed`); more than
+    ``[calibration] max_replicates`` allows, and the target cannot be verified at that
+    profile. Not written to calibration.json: a fact about the lab's numbers, said where
+    a user reads the result (docs/guide.md, "The lab file")."""
+    from demcal.campaign.noise import production_noise, stored_noise
+    from demcal.campaign.replicates import replicates_needed
+    from demcal.campaign.wording import Words
+
+    production = production_profile(campaign)
+    responses = campaign.response_names
+    noise = production_noise(campaign, records, production, responses,
+                             stored_noise(campaign, production, responses), kinds=None)
+    cap = campaign.calibration.max_replicates
+    out = []
+    for condition in campaign.conditions:
+        w = Words(campaign, condition)
+        for t in condition.targets:
+            sd, df, _ = noise.get(t.response, (float("nan"), 0, 0))
+            if t.sd is None or df < 1 or not np.isfinite(sd) or t.sd >= sd:
+                continue
+            lab, seed = _apart(t.sd, sd, w.unit(t.response))
+            what = (f"{condition.name}: the lab sd of the {w.label(t.response)}, {lab}, is below the simulation's "
+                    f"seed noise at profile {production}, {seed} ({df} degrees of freedom of replicated runs)")
+            if t.sd == 0:
+                out.append(f"{what}: no number of runs verifies it, since the 95 % interval of a mean is never "
+                           "narrower than 0; give the spread between at least three tests.")
+                continue
+            need = replicates_needed(sd, df, 0, t.sd, MANY_RUNS)
+            about = f"about {need}" if need < MANY_RUNS else f"more than {MANY_RUNS}"
+            if need > cap:
+                out.append(f"{what}: the 95 % interval of a simulated mean is narrower than that only after {about} "
+                           f"production runs at one point, more than [calibration] max_replicates ({cap}) allows, "
+                           "so this target cannot be verified at this profile; take the lab sd from the spread "
+                           "between at least three tests, or raise max_replicates and [budget] runs.")
+            else:
+                out.append(f"{what}: verifying it takes {about} production runs at one point, since the 95 % "
+                           "interval of their mean must be narrower than the lab sd; check that the sd is the "
+                           "spread between at least three tests, not between repeats of one.")
+    return out
+
+
+def _apart(a: float, b: float, unit: str | None) -> tuple[str, str]:
+    """Two sds to two significant digits each, or three where two would print them alike."""
+    from demcal.rounding import rounded
+
+    shown = (rounded(a, a, unit), rounded(b, b, unit))
+    return shown if shown[0] != shown[1] else (rounded(a, a, unit, digits=3), rounded(b, b, unit, digits=3))
 
 
 def prediction_parts(model, corrected, point,

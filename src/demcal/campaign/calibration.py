@@ -162,6 +162,10 @@ class Calibration:
     warnings: list[str] = field(default_factory=list)
     #: every design: one, or one per distinct set of conditions' fixed settings
     designs: list[DesignFit] = field(default_factory=list)
+    #: lab sds below the simulation's seed noise, one sentence each
+    #: (:func:`demcal.campaign.calibrate.lab_noise_warnings`): the terminal and the report
+    #: say them with the warnings; calibration.json does not hold them
+    lab_noise: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         if not self.designs:
@@ -251,47 +255,81 @@ def production_profile(campaign: Campaign) -> str:
 
 
 def describe(calibration: Calibration) -> str:
-    """A few lines for the terminal; warnings about the design come first."""
-    lines = [f"warning: {warning}" for warning in calibration.warnings]
+    """A few lines for the terminal; warnings about the design come first.
+
+    Every value is rounded to the precision its noise supports and carries its unit
+    (:mod:`demcal.rounding`): a response value to its lab sd's, a mean with its 95 %
+    interval, a parameter to its solution set's width; responses go by their labels and
+    the loop's notes read as short sentences (:mod:`demcal.campaign.wording`).
+    calibration.json keeps every digit and the loop's own words."""
+    from demcal.campaign import wording
+    from demcal.rounding import ranged, rounded
+
+    c = calibration.campaign
+    words = wording.Words(c)
+    lines = [f"warning: {words.keys(warning)}" for warning in calibration.warnings + calibration.lab_noise]
     several = len(calibration.designs) > 1
     for design in calibration.designs:
         for response, model in design.models.items():
             fit = model.fit
+            unit = words.unit(response)
             lines.append((f"{design.name}: " if several else "")
-                         + f"{response}: {calibration.campaign.model_order} model"
-                         + (f" reduced at alpha {calibration.campaign.reduce_alpha:g}"
-                            if design.removed[response] else "")
+                         + words.title(response) + (f" [{unit}]" if unit else "")
+                         + f": {c.model_order} model"
+                         + (f" reduced at alpha {c.reduce_alpha:g}" if design.removed[response] else "")
                          + f", R² {fit.r2:.3f}, adj. R² {fit.adj_r2:.3f}, pred. R² {fit.pred_r2:.3f}")
             lines.append(f"  {model.equation('coded', digits=4)}")
     fixed = {}
-    if calibration.campaign.per_condition:
+    if c.per_condition:
         from demcal.campaign.chain import SOURCE_DEFAULT, condition_settings
 
-        fixed = condition_settings(calibration.campaign)
+        fixed = condition_settings(c)
+    units = {f.parameter: f.units for f in c.factors}
     for result in calibration.conditions:
-        params = ", ".join(f"{k} = {v:g}" for k, v in result.chosen.items())
-        lines.append(f"{result.condition.name}: {params}")
+        w = wording.Words(c, result.condition)
+        lines.append(f"{result.condition.name}: {wording.clause(wording.stop(c, result))}".rstrip(": "))
+        for key, value in result.chosen.items():
+            lo, hi = result.factor_ranges.get(key, (float("nan"), float("nan")))
+            shown, low, high = ranged(value, lo, hi, units.get(key))
+            lines.append(f"  {key} = {shown}" + (f" (solution set {low} to {high})" if low and high else ""))
         if fixed:
             lines.append("  fixed: " + ", ".join(f"{k} = {v} ({source})" for k, (v, source)
                                                  in fixed[result.condition.name].items() if source != SOURCE_DEFAULT))
-        if result.loop is not None:
-            moved = len(result.loop.boxes) - 1
-            lines.append(f"  loop: {result.loop.status}"
-                         + (f" after {moved} box move{'s' if moved != 1 else ''}" if moved else "")
-                         + f"; {result.loop.reason}")
         for v in result.verdicts:
-            inside = {True: "inside", False: "outside", None: "no lab sd"}[v.within_lab_sd]
-            sim = (f"simulated {v.simulated_mean:.2f} (n={len(v.simulated)}), error {v.relative_error_percent:.2f} %, "
-                   f"{inside} the lab spread" if v.simulated else "not simulated yet")
-            sd = f" ± {v.lab_sd:g}" if v.lab_sd is not None else ""
-            lines.append(f"  {v.response}: target {v.target:g}{sd}, predicted {v.predicted:.2f}, {sim}")
-            if v.simulated and np.all(np.isfinite(v.mean_interval)):
-                lo, hi = v.mean_interval
-                lines.append(f"  {v.response}: model check: the model's 95 % interval for a mean of "
-                             f"{len(v.simulated)} is {lo:.2f} to {hi:.2f}: {v.confirmation}")
-        for note in result.notes:
-            lines.append(f"  note: {note}")
+            lines.extend(_verdict_lines(w, result, v, rounded))
+        lines.extend(f"  note: {note}" for note in wording.notes(c, result))
     for note in calibration.notes:
         if note not in calibration.warnings:
-            lines.append(f"note: {note}")
+            lines.append(f"note: {words.plain(note)}")
     return "\n".join(lines)
+
+
+def _verdict_lines(w, result: ConditionResult, v: ResponseVerdict, rounded) -> list[str]:
+    """One response's verdict for the terminal: lab, model, simulated mean ± its 95 %
+    interval, and the model check."""
+    from demcal.campaign.wording import half_width
+
+    r = v.response
+    parts = [f"lab {w.window(v.target, v.lab_sd, r)}", f"model {w.value(v.predicted, r)}"]
+    n = len(v.simulated)
+    half = half_width(result, v) if n else float("nan")
+    if n:
+        spread = half if np.isfinite(half) else (v.lab_sd or float("nan"))
+        inside = {True: "inside the lab's mean ± sd", False: "outside the lab's mean ± sd",
+                  None: "no lab sd to judge by"}[v.within_lab_sd]
+        mean = (f"{w.window(v.simulated_mean, half, r)} (95 %, n = {n})" if np.isfinite(half)
+                else f"{w.value(v.simulated_mean, r)} (n = {n})")
+        parts.append(f"simulated {mean}, error "
+                     f"{rounded(v.relative_error_percent, 100 * spread / abs(v.target), '%')}: {inside}")
+    else:
+        parts.append("not simulated yet")
+    lines = [f"  {w.title(r)}: " + ", ".join(parts)]
+    lo, hi = v.mean_interval
+    if n and np.isfinite(lo) and np.isfinite(hi):
+        half_model = (hi - lo) / 2
+        unit = w.unit(r)
+        check = "confirmed" if v.confirmation == "confirmed" else (
+            f"not confirmed, the mean {rounded(v.simulated_mean, half_model, unit)} lies outside it")
+        lines.append(f"  model check: the model's 95 % interval for a mean of {n} is "
+                     f"{rounded(lo, half_model)} to {rounded(hi, half_model, unit)}: {check}")
+    return lines

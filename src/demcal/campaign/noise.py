@@ -30,9 +30,12 @@ def pooled_sd(groups) -> tuple[float, int]:
 
 
 def production_noise(campaign: Campaign, records: Sequence[RunRecord], production: str,
-                     responses, prior: dict[str, list] | None = None) -> dict[str, tuple[float, int, int]]:
+                     responses, prior: dict[str, list] | None = None,
+                     kinds: tuple[str, ...] | None = ("verification",)) -> dict[str, tuple[float, int, int]]:
     """Per response: the seed-to-seed sd of the production runs the loop has seen,
-    pooled over their points, its df, and how many of those df are the campaign's own;
+    pooled over their points, its df, and how many of those df are the campaign's own
+    (``kinds``: the runs that count, by kind; None: every run at ``production``, the
+    design's replicated points among them);
     with ``prior`` (response -> the stored studies' ``(settings, n, sd)`` points of the
     production profile: :func:`stored_noise`) pooled in as further points, each point
     the campaign has run itself left out (its own runs there count instead: a stored
@@ -48,7 +51,8 @@ def production_noise(campaign: Campaign, records: Sequence[RunRecord], productio
     test of equal variances with 2 df a point does not tell apart from chance."""
     groups: dict[tuple, list[RunRecord]] = {}
     for r in records:
-        if r.status == "done" and r.kind == "verification" and r.test == campaign.test and r.profile == production:
+        if (r.status == "done" and (kinds is None or r.kind in kinds) and r.test == campaign.test
+                and r.profile == production):
             groups.setdefault(json.dumps(r.settings, sort_keys=True), []).append(r)
     own_settings = [rows[0].settings for rows in groups.values()]
     out = {}

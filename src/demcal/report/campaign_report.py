@@ -101,6 +101,9 @@ def _summary(report: HtmlReport, cal: Calibration, several: bool) -> dict:
     """What the first screen says of one campaign (template ``summary.html.j2``): per
     condition the calibrated values with their solution-set ranges, the verdict and the
     runs; the campaign's facts, warnings and material card."""
+    from demcal.campaign.wording import Words
+    from demcal.rounding import ranged
+
     c = cal.campaign
     responses = sorted({v.response for r in cal.conditions for v in r.verdicts}, key=str)
     one = responses[0] if len(responses) == 1 else None
@@ -111,14 +114,15 @@ def _summary(report: HtmlReport, cal: Calibration, several: bool) -> dict:
         for f in c.factors:
             value = result.chosen.get(f.parameter)
             lo, hi = result.factor_ranges.get(f.parameter, (np.nan, np.nan))
-            values.append({"value": "" if value is None else f"{value:.4g}",
-                           "range": f"set {lo:.4g} to {hi:.4g}" if np.isfinite(lo) and np.isfinite(hi) else
+            shown, low, high = ranged(value, lo, hi, f.units) if value is not None else ("", "", "")
+            values.append({"value": shown,
+                           "range": f"set {low} to {high}" if low and high else
                            "a point on the path, no solution set" if on_path else ""})
         conditions.append({"name": result.condition.name,
                            "label": result.condition.label if result.condition.label != result.condition.name else "",
                            "values": values, "verdicts": [_verdict(c, result, v, one is None)
                                                           for v in result.verdicts],
-                           "status": _loop_words(result), "runs": _condition_runs(result)})
+                           "status": _loop_words(c, result), "runs": _condition_runs(result)})
     table = pd.concat([design.table for design in cal.designs])
     done = int((table["status"] == "done").sum())
     spent = _runs_spent(cal)
@@ -135,7 +139,8 @@ def _summary(report: HtmlReport, cal: Calibration, several: bool) -> dict:
             "heading": f"{c.title}: calibrated values" if several else "Calibrated values",
             "factor_headings": [f.label for f in c.factors],
             "verdict_heading": ("Verification: " + _response_heading(c, one)) if one else "Verification",
-            "conditions": conditions, "facts": facts, "warnings": list(cal.warnings), "links": links,
+            "conditions": conditions, "facts": facts, "links": links,
+            "warnings": [Words(c).keys(w) for w in list(cal.warnings) + list(cal.lab_noise)],
             "export_text": "the card for a DEM code (json, liggghts or edem):",
             "export": _command(c, "export").replace(" --profile " + shlex.quote(str(c.profile)), "")
             + f" --format json -o {shlex.quote(c.name + '-card.json')}"}
@@ -149,12 +154,16 @@ def _anchor(name: str) -> str:
 
 
 def _verdict(c: Campaign, result, v, labelled: bool) -> dict:
-    """One response's verdict: lab mean ± sd, simulated mean ± its 95 % interval, n."""
-    lab = f"{v.target:g} ± {v.lab_sd:g}" if v.lab_sd is not None else f"{v.target:g}"
+    """One response's verdict: lab mean ± sd, simulated mean ± its 95 % interval, n, each
+    rounded to the precision its noise supports, with its unit."""
+    from demcal.campaign.wording import Words, half_width
+
+    w = Words(c, result.condition)
+    lab = w.window(v.target, v.lab_sd, v.response)
     n = len(v.simulated)
-    half = _simulated_half_width(result, v)
-    simulated = (f"{v.simulated_mean:.2f} ± {half:.2f} (95 %)" if np.isfinite(half)
-                 else f"{v.simulated_mean:.2f}") if n else ""
+    half = half_width(result, v)
+    simulated = (f"{w.window(v.simulated_mean, half, v.response)} (95 %)" if np.isfinite(half)
+                 else w.value(v.simulated_mean, v.response)) if n else ""
     if result.loop is not None:
         words, ok = result.loop.status, result.loop.status == "verified"
     elif not n:
@@ -168,28 +177,12 @@ def _verdict(c: Campaign, result, v, labelled: bool) -> dict:
             "n": n, "words": words, "ok": ok}
 
 
-def _simulated_half_width(result, v) -> float:
-    """Half-width of the 95 % interval of the simulated mean: the loop's (its seed sd
-    pooled over the production points) when a loop verified it, else the replicates' own
-    t interval (NaN with fewer than two)."""
-    from scipy import stats
+def _loop_words(c: Campaign, result) -> str:
+    """Why a loop that did not verify stopped, in one sentence (the verdict says the rest)."""
+    from demcal.campaign.wording import stop
 
-    if result.loop is not None and v.simulated:
-        for step in reversed(result.loop.history):
-            if (step.stage == "production" and step.half_width is not None and step.simulated is not None
-                    and np.isclose(step.simulated, v.simulated_mean)):
-                return float(step.half_width)
-    n = len(v.simulated)
-    if n < 2:
-        return float("nan")
-    return float(stats.t.ppf(0.975, n - 1) * v.simulated_sd / np.sqrt(n))
-
-
-def _loop_words(result) -> str:
     loop = result.loop
-    if loop is None:
-        return ""
-    return f"loop {loop.status}: {loop.reason}" if loop.status != "verified" else ""
+    return stop(c, result) if loop is not None and loop.status != "verified" else ""
 
 
 def _condition_runs(result) -> str:
@@ -255,6 +248,8 @@ def _drop_empty(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> None:
+    from demcal.campaign.wording import Words
+
     c = cal.campaign
     n = lambda name: _name(prefix, name)  # noqa: E731
     if prefix:
@@ -307,7 +302,7 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
             _model_sections(report, c, design, response, m)
     for note in cal.notes:
         if note not in cal.warnings:
-            report.note(note)
+            report.note(Words(c).plain(note))
 
 
 def _lab_section(report: HtmlReport, cal: Calibration, n) -> None:
@@ -424,6 +419,7 @@ def _surface_pairs(model, k: int) -> list[tuple[int, int]]:
 
 
 def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
+    from demcal.campaign.wording import Words, stop
     from demcal.report.diagnostics import add_desirability_sections
     from demcal.report.paper import add_optimization_sections
 
@@ -494,9 +490,10 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                          "goal's limits widened to the target), so an unreachable target scores below "
                          "the 0.99 of the solution set")
     for result in cal.conditions:
+        words = Words(c, result.condition)
         for note in result.notes:
             if "outside what the model reaches" in note:
-                report.note(f"{result.condition.name}: {note}.")
+                report.note(f"{result.condition.name}: {words.plain(note)}")
         outside = _outside_box(c, result.condition.reference)
         if outside:
             values = ", ".join(f"{f.parameter} = {result.condition.reference[f.parameter]:g} (design box "
@@ -508,19 +505,20 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
         on_path = result.loop.on_path if result.loop is not None else None
         if on_path is not None:
             steps = on_path["steps"]
+            reading = words.value(on_path.get("reading", np.nan), result.condition.targets[0].response)
             where = (f"a point on the path of steepest {on_path['way']} from box {on_path['box']}, "
                      f"where the path, read at the production profile and interpolated linearly between its steps "
                      f"{steps[0]} and {steps[1]}, crosses the lab target")
             if on_path.get("limit"):
                 where = (f"the end of the path of steepest {on_path['way']} from box {on_path['box']}: its step "
                          f"{steps[0]}, where the parameters' limits stop it short of the lab mean (read there at "
-                         f"the production profile: {on_path['reading']:.2f}, within the noise of the lab window, "
+                         f"the production profile: {reading}, within the noise of the lab window, "
                          f"so it was measured at the production profile rather than the target being called out "
                          f"of reach)")
             elif on_path.get("nearest"):
                 where = (f"the step of the path of steepest {on_path['way']} from box {on_path['box']} nearest the "
                          f"lab target: its step {steps[0]}, which the path did not carry past the lab mean but read "
-                         f"inside the lab window at the production profile ({on_path['reading']:.2f}), so it was "
+                         f"inside the lab window at the production profile ({reading}), so it was "
                          f"measured there before a new box was laid")
             if result.loop.status == "verified":
                 report.paragraph(
@@ -530,11 +528,11 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                     "and no factor ranges. Lay a design around it (set [calibration] verify_on_path = false) to "
                     "map the other settings that give the same angle.")
             else:
-                report.paragraph(f"{result.condition.name}: the loop stopped ({result.loop.status}) at {where}: "
-                                 f"{result.loop.reason}.")
+                report.paragraph(f"{result.condition.name}: the loop stopped at {where}. {stop(c, result)}")
             continue
         title = f"Solving for {result.condition.name} (solution 1, the star, is simulated)"
-        substitutes = [f"the lab's {v.response} {v.target:g} is out of reach, so the goal is {goal.target:.2f}"
+        substitutes = [f"the lab's {words.value(v.target, v.response)} ({words.label(v.response)}) is out of reach, "
+                       f"so the goal is {words.value(goal.target, v.response)}"
                        for v in result.verdicts
                        if not v.target_reachable and (goal := _goal_solved(result, v.response)) is not None]
         if substitutes:
@@ -707,6 +705,8 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
     if not loops:
         return
     from demcal.campaign.calibrate import production_profile
+    from demcal.campaign.wording import Words, stop
+    from demcal.campaign.wording import step as wording_step
 
     c = cal.campaign
     report.section("The calibration loop", 3)
@@ -716,21 +716,23 @@ def _loop_sections(report: HtmlReport, cal: Calibration, n) -> None:
     status, boxes, steps = [], [], []
     for result, loop in loops:
         name = result.condition.name
+        words = Words(c, result.condition)
         kinds = loop.runs_by_stage()
         status.append({"condition": name, "status": loop.status, "boxes": len(loop.boxes),
                        "path runs": kinds.get("path", 0), "new design runs": kinds.get("design", 0),
                        "production runs": len(result.verification), "discrepancy":
-                       "; ".join(d.describe() for d in loop.discrepancy.values()), "why it stopped": loop.reason})
+                       "; ".join(d.describe() for d in loop.discrepancy.values()), "why it stopped": stop(c, result)})
         for box in loop.boxes:
             row = {"condition": name, "box": box.index}
             for f, lo, hi in zip(c.factors, box.low, box.high):
                 row[f.parameter] = f"{lo:.4g} to {hi:.4g}"
-            row["why"] = box.reason
+            row["why"] = words.plain(box.reason)
             boxes.append(row)
         for step in loop.history:
             steps.append({"condition": name, "iteration": step.iteration + 1, "box": step.box, "stage": step.stage,
                           "runs": step.runs, "predicted": step.predicted, "simulated": step.simulated,
-                          "95 % half-width": step.half_width, "what happened": step.text})
+                          "95 % half-width": step.half_width,
+                          "what happened": wording_step(c, result.condition, step)})
     spent = _runs_spent(cal)
     if spent:
         report.paragraph("Simulations this campaign spent: " + ", ".join(f"{count} {what}" for what, count in spent)
@@ -766,6 +768,7 @@ def _runs_spent(cal: Calibration) -> list[tuple[str, int]]:
 
 def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
     from demcal.campaign.calibrate import PREDICTION_LEVEL
+    from demcal.campaign.wording import Words, half_width, notes
 
     c = cal.campaign
     report.section("Verification by simulation", 3)
@@ -806,12 +809,15 @@ def _verification_sections(report: HtmlReport, cal: Calibration, n) -> None:
                          + _cite(c, "verification"))
     _next_step(report, cal)
     for result in cal.conditions:
+        words = Words(c, result.condition)
         for v in result.verdicts:
             if v.simulated and v.within_lab_sd:
-                report.paragraph(f"{result.condition.name}: simulated {v.response} {v.simulated_mean:.2f} lies "
-                                 f"within the lab's {v.target:g} ± {v.lab_sd:g} (error "
-                                 f"{v.relative_error_percent:.2f} %).")
-        for note in result.notes:
+                half = half_width(result, v)
+                mean = (f"{words.window(v.simulated_mean, half, v.response)} (95 %)" if np.isfinite(half)
+                        else words.value(v.simulated_mean, v.response))
+                report.paragraph(f"{result.condition.name}: the simulated {words.label(v.response)}, {mean}, lies "
+                                 f"within the lab's {words.window(v.target, v.lab_sd, v.response)}.")
+        for note in notes(c, result):
             if "outside what the model reaches" not in note:
                 report.note(f"{result.condition.name}: {note}")
 

@@ -25,24 +25,16 @@ __all__ = [
 ]
 
 
-#: Unit suffixes of response names (``repose_angle_deg``) and the unit they stand for.
-_UNIT_SUFFIXES = {"deg": "°", "rad": "rad", "percent": "%", "pct": "%", "m": "m", "mm": "mm",
-                  "s": "s", "pa": "Pa", "kg": "kg", "n": "N", "j": "J", "kgm3": "kg/m³"}
-
-
 def _factor_label(f) -> str:
     return getattr(f, "label", f.name)
 
 
 def response_label(name: str, label: str | None = None, unit: str | None = None) -> str:
     """Axis label of a response: ``label [unit]``; without them, read from the name:
-    ``repose_angle_deg`` -> ``Repose angle [°]``."""
-    if label is None or label == name:
-        words = str(name).split("_")
-        if unit is None and len(words) > 1 and words[-1].lower() in _UNIT_SUFFIXES:
-            unit = _UNIT_SUFFIXES[words.pop().lower()]
-        label = " ".join(words)
-        label = label[:1].upper() + label[1:]
+    ``repose_angle_deg`` -> ``Repose angle [°]`` (:func:`demcal.campaign.wording.response_words`)."""
+    from demcal.campaign.wording import response_words
+
+    label, unit = response_words(name, label, unit)
     return f"{label} [{unit}]" if unit else label
 
 
