@@ -17,9 +17,9 @@ def test_help_imports_no_numerical_library():
 
 def test_every_command_module_registers_its_commands():
     sub = build_parser()._subparsers._group_actions[0]
-    assert len(COMMAND_MODULES) == 7
+    assert len(COMMAND_MODULES) == 8
     assert {"design", "analyze", "optimize", "measure", "bench", "run", "calibrate", "report",
-            "demo", "export"} <= set(sub.choices)
+            "demo", "export", "identify"} <= set(sub.choices)
     assert all(callable(p.get_default("func")) for p in sub.choices.values())
 
 

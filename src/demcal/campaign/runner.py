@@ -71,19 +71,14 @@ def plan_design(campaign: Campaign) -> DesignPlan:
     different seeds, so their spread is the simulation's own noise (the pure error
     of the ANOVA).
     """
-    from demcal.bench.registry import get_experiment, resolve_settings
+    from demcal.bench.registry import get_experiment
 
     coded = campaign.design.matrix(len(campaign.factors))
     experiment = get_experiment(campaign.test)
     n = coded.shape[0]
     specs, points, replicates = [], [], []
     for i, row in enumerate(coded):
-        parameters = {f.parameter: _round(f.to_actual(c)) for f, c in zip(campaign.factors, row)}
-        settings = point_settings(campaign, parameters)
-        try:
-            resolve_settings(experiment, settings, campaign.profile)
-        except ConfigError as exc:
-            raise ConfigError(f"{campaign.path.name}: design point {i + 1} is not a valid run: {exc}") from None
+        parameters, settings = checked_point(campaign, experiment, row, f"design point {i + 1}")
         for r in range(campaign.replicates):
             label = f"design {i + 1}" + (f" r{r + 1}" if campaign.replicates > 1 else "")
             specs.append(RunSpec("design", label, campaign.test, campaign.profile, parameters, settings,
@@ -91,6 +86,21 @@ def plan_design(campaign: Campaign) -> DesignPlan:
             points.append(i)
             replicates.append(r)
     return DesignPlan(coded, tuple(specs), tuple(points), tuple(replicates))
+
+
+def checked_point(campaign: Campaign, experiment, coded_row, what: str) -> tuple[dict[str, float], dict[str, Any]]:
+    """The factor values (``parameters``) and every override (``settings``) of the point
+    ``coded_row``; one sentence naming ``what`` (e.g. ``design point 3``) when the bench
+    refuses them."""
+    from demcal.bench.registry import resolve_settings
+
+    parameters = {f.parameter: _round(f.to_actual(c)) for f, c in zip(campaign.factors, coded_row)}
+    settings = point_settings(campaign, parameters)
+    try:
+        resolve_settings(experiment, settings, campaign.profile)
+    except ConfigError as exc:
+        raise ConfigError(f"{campaign.path.name}: {what} is not a valid run: {exc}") from None
+    return parameters, settings
 
 
 def design_specs(campaign: Campaign) -> list[RunSpec]:

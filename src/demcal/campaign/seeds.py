@@ -10,3 +10,6 @@ how far its seeds reach (:mod:`demcal.campaign.config`) reads the same numbers.
 #: campaign's ``[runs] seed``); production runs use ``[verification] seed``.
 PATH_SEED = 20_000
 BOX_SEED = 50_000
+#: Seeds of ``demcal identify``'s screening runs: ``seed + SCREEN_SEED + replicate * points
+#: + point`` (:mod:`demcal.campaign.identify`), far above the loop's.
+SCREEN_SEED = 900_000

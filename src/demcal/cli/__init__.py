@@ -32,6 +32,7 @@ COMMAND_MODULES = (
     "demcal.cli.measure",  # measure repose|incline
     "demcal.cli.bench",  # bench NAME
     "demcal.cli.campaign",  # run, calibrate, report, demo
+    "demcal.cli.identify",  # identify
     "demcal.cli.export",  # export
 )
 
