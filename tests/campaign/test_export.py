@@ -37,9 +37,13 @@ REPOSE_CALIBRATION = {
         {"name": "6.26 %", "chosen": {"particle.restitution": 0.58, "particle.static_friction": 0.312,
                                       "particle.rolling_friction": 0.105, "particle.damping_factor": 0.12},
          "chosen_coded": {"A": -0.2, "B": -0.88, "C": -0.95, "D": 0.2}, "desirability": 1.0,
+         "factor_ranges": {"particle.restitution": [0.5, 0.7], "particle.static_friction": [0.29874, 0.33417],
+                           "particle.rolling_friction": [0.1, 0.23162], "particle.damping_factor": [0.0, 0.2]},
          "final": {"iteration": 2, "profile": "quick"}, "verified": True, "verification": [VERIFIED]},
         {"name": "14.1 %", "chosen": {"particle.restitution": 0.69, "particle.static_friction": 0.38,
                                       "particle.rolling_friction": 0.23, "particle.damping_factor": 0.19},
+         "factor_ranges": {"particle.restitution": [0.5, 0.7], "particle.static_friction": [0.35121, 0.4],
+                           "particle.rolling_friction": [0.21043, 0.3], "particle.damping_factor": [0.0, 0.2]},
          "verification": []},
     ],
 }
@@ -49,6 +53,8 @@ SLIDING_CALIBRATION = {
     "conditions": [
         {"name": "14.1 %", "chosen": {"film.restitution": 0.53, "film.static_friction": 0.48,
                                       "film.rolling_friction": 0.22},
+         "factor_ranges": {"film.restitution": [0.4, 0.6], "film.static_friction": [0.44612, 0.51274],
+                           "film.rolling_friction": [0.1, 0.3]},
          "verification": [{"response": "sliding_angle_deg", "target": 30.46, "lab_sd": 3.2, "predicted": 30.1,
                            "simulated": [29.0, 30.0], "simulated_mean": 29.5, "simulated_sd": 0.71,
                            "relative_error_percent": 3.15, "within_lab_sd": True}]},
@@ -148,7 +154,8 @@ def test_json_card_holds_the_full_calibrated_material(repose, capsys):
     # keys the card does not read are kept as written
     assert low["calibration"]["final"] == {"iteration": 2, "profile": "quick"}
     assert low["calibration"]["verified"] is True and low["calibration"]["desirability"] == 1.0
-    assert card["conditions"][1]["calibration"] == {}
+    assert card["conditions"][1]["calibration"] == {  # every digit, beside the card's rounded solution_set
+        "factor_ranges": REPOSE_CALIBRATION["conditions"][1]["factor_ranges"]}
     assert card["calibration"]["iterations"] == [{"box": 0, "runs": 29}]
     assert card["calibration"]["models"] == REPOSE_CALIBRATION["models"]
     assert "conditions" not in card["calibration"]
@@ -364,9 +371,14 @@ def test_edem_tables(repose, capsys):
     assert "Particle to Particle: base model Hysteretic Spring; rolling friction Standard Rolling Friction" in text
     assert ("Material,Poisson's Ratio,Solid Density (kg/m3),Shear Modulus (Pa),Yield Strength (Pa)\n"
             "particle,0.46,1687.85,1e+06,200000\nsteel,0.3,7800,7e+10,2.5e+08\n") in text
-    assert ("Material 1,Material 2,Coefficient of Restitution,Coefficient of Static Friction,"
-            "Coefficient of Rolling Friction,Damping Factor,Stiffness Factor\n"
-            "particle,particle,0.58,0.312,0.105,0.12,0.95\nparticle,steel,0.5,0.6,0.3,0.1,0.95\n") in text
+    # each calibrated value with the low and high ends of its solution set beside it
+    assert ("Material 1,Material 2,Coefficient of Restitution,Coefficient of Restitution low,"
+            "Coefficient of Restitution high,Coefficient of Static Friction,Coefficient of Static Friction low,"
+            "Coefficient of Static Friction high,Coefficient of Rolling Friction,Coefficient of Rolling Friction low,"
+            "Coefficient of Rolling Friction high,Damping Factor,Damping Factor low,Damping Factor high,"
+            "Stiffness Factor\n"
+            "particle,particle,0.58,0.5,0.7,0.312,0.298,0.335,0.105,0.1,0.232,0.12,0,0.2,0.95\n"
+            "particle,steel,0.5,,,0.6,,,0.3,,,0.1,,,0.95\n") in text
     assert "Sphere,Radius (mm),X (mm),Y (mm),Z (mm)\n1,4," in text and "\n2,5," in text
     assert "distance between the sphere centres: 7 mm" in text
     assert "Factory size: Random (uniform scale), Min 0.5, Max 1.5" in text
@@ -381,7 +393,7 @@ def test_edem_tables_of_a_hertz_mindlin_material(sliding, capsys):
     assert "base model Hertz-Mindlin (no slip); rolling friction Type C Rolling Friction" in text
     assert "Yield Strength" not in text and "Damping Factor" not in text
     assert "Rolling Viscous Damping Ratio\n" in text
-    assert "particle,film,0.53,0.48,0.22,0.3\n" in text
+    assert "particle,film,0.53,0.4,0.6,0.48,0.446,0.513,0.22,0.1,0.3,0.3\n" in text
     assert "film,0.4,920,1e+08\n" in text
 
 
@@ -397,8 +409,9 @@ def test_edem_tables_of_a_jkr_material(example, capsys):
     text = _export(capsys, "sliding.toml", "--format", "edem")
     assert "base model Hertz-Mindlin with JKR Cohesion; rolling friction Standard Rolling Friction" in text
     assert "NOT TRANSFERABLE" not in text
-    assert ",Coefficient of Rolling Friction,Surface Energy (J/m2)\n" in text
-    assert "particle,particle,0.6,0.4,0.2,0.4\n" in text and "particle,film,0.53,0.48,0.22,0.1\n" in text
+    assert ",Coefficient of Rolling Friction high,Surface Energy (J/m2)\n" in text
+    assert "particle,particle,0.6,,,0.4,,,0.2,,,0.4\n" in text
+    assert "particle,film,0.53,0.4,0.6,0.48,0.446,0.513,0.22,0.1,0.3,0.1\n" in text
     card = _card(capsys, "sliding.toml", "--format", "json")
     rows = {tuple(r["materials"]): r for r in card["conditions"][0]["interactions"]}
     assert rows[("particle", "particle")]["rolling_damping"] == 0.2     # the setting, not a default

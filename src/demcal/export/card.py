@@ -35,8 +35,17 @@ Layout::
                     interactions  [{materials, restitution, static_friction,
                                   rolling_friction, damping_factor, stiffness_factor,
                                   rolling_damping, surface_energy}]
+                    solution_set  KEY -> low, high, unit: each calibrated value's range over
+                                  the settings of the last design box whose fitted surface
+                                  meets every lab mean (desirability >= 0.99; not widened
+                                  for the lab sd, the prediction interval or the seed
+                                  noise), ends rounded outward to 3 significant digits;
+                                  meaning: that in one sentence (demcal.export.solution);
+                                  null where calibration.json holds no range (a warning
+                                  says why)
                     verification  the verification figures of calibration.json, as written
                     calibration   every other key of the condition in calibration.json, as written
+                                  (factor_ranges too, with every digit)
     calibration     every top-level key of calibration.json but its conditions, as written
     calibration_file  path and sha256 of calibration.json
     warnings        every reason not to trust the card, one sentence each, in this order:
@@ -45,9 +54,11 @@ Layout::
                     another campaign that calibration.json does not record; values verified
                     at a profile cheaper than the paper's (tiny, quick, medium: the cheap
                     bench's values); each exported condition not verified (its loop's
-                    status, or no, unfinished or missed verification runs); models that do
-                    not carry over to the code the card is for (both codes for the JSON
-                    card); then calibration.json's own warnings, as written
+                    status, or no, unfinished or missed verification runs), and each
+                    without a solution set (verified on the path, no setting meeting the
+                    targets, none recorded); models that do not carry over to the code
+                    the card is for (both codes for the JSON card); then
+                    calibration.json's own warnings, as written
 
 The campaign hash (:func:`demcal.campaign.digest.campaign_hash`, re-exported here) is the
 same one ``demcal calibrate`` writes into calibration.json; ``demcal export`` refuses a
@@ -65,6 +76,7 @@ from demcal import __version__
 from demcal.campaign.chain import SOURCE_FILE
 from demcal.campaign.digest import calibrated_from, campaign_hash, resolved_config  # noqa: F401  (the card's API)
 from demcal.errors import DataError
+from demcal.export.solution import solution_set
 
 CARD_VERSION = 1
 
@@ -248,6 +260,7 @@ def build_card(campaign, calibration: Mapping[str, Any], conditions: list[str] |
             "parameters": parameters,
             "materials": materials(parameters),
             "interactions": interactions(parameters),
+            "solution_set": solution_set(raw, parameters)[0],
             "verification": _json_safe(raw.get("verification", [])),
             "calibration": _json_safe({k: v for k, v in raw.items() if k not in _CONDITION_KEYS}),
         })
@@ -504,6 +517,8 @@ def _trust_warnings(campaign, calibration: Mapping[str, Any], names: list[str], 
     calibrated = {c.get("name"): c for c in calibration.get("conditions", []) if isinstance(c, Mapping)}
     for name in names:
         out += condition_warnings(campaign, name, calibrated[name])
+        none = solution_set(calibrated[name], {})[1]
+        out += [f"condition '{name}' has no solution set: {none}."] if none else []
     out += [w for w in (transfer_warning(models, code) for code in codes) if w]
     out += [w for w in calibration.get("warnings") or [] if isinstance(w, str)]
     return list(dict.fromkeys(out))

@@ -7,7 +7,11 @@ Hysteretic Spring), the interaction table (coefficients of restitution, static a
 rolling friction; damping and stiffness factors for the Hysteretic Spring; rolling
 viscous damping for Type C; surface energy for JKR cohesion), the particle (its spheres and the size distribution of
 the factory), then the lab record and the verification figures. Tables are CSV with
-EDEM's field names and units in the header, so they can also be read by a script.
+EDEM's field names and units in the header, so they can also be read by a script. The
+solution set (:mod:`demcal.export.solution`) is given twice: each calibrated value with
+its range in the comment lines at the top, and a ``low`` and a ``high`` column beside
+each column of the material and interaction tables that holds a calibrated value (empty
+in the rows whose value was not calibrated).
 """
 
 from __future__ import annotations
@@ -16,7 +20,14 @@ import csv
 import io
 from typing import Any, Mapping
 
-from demcal.export.text import calibrated_line, lab_line, number, verification_lines, warning_head, wrap
+from demcal.export.text import (calibrated_line, lab_line, number, solution_lines, verification_lines,
+                                 warning_head, wrap)
+
+#: A material of the card -> the prefix of its parameter keys (steel's bulk values are
+#: demcal's, not parameters); the other material of an interaction -> the prefix of the
+#: pair's keys.
+MATERIAL_PREFIX = {"particle": "particle", "film": "film"}
+PAIR_PREFIX = {"particle": "particle", "steel": "wall", "film": "film"}
 
 
 def to_edem(card: Mapping[str, Any]) -> str:
@@ -44,42 +55,33 @@ def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> st
         lines += wrap(f"note: {note}.", "# ")
     lines += wrap(f"lab: {lab_line(condition['lab'])}", "# ")
     lines += wrap(calibrated_line(condition), "# ")
+    for line in solution_lines(condition):
+        lines += wrap(line, "# ")
     for line in verification_lines(condition.get("verification", [])):
         lines += wrap(line, "# ")
     lines += ["", "[Physics]",
               f"Particle to Particle: base model {code['contact_model']}; rolling friction {code['rolling_model']}",
               f"Particle to Geometry: base model {code['contact_model']}; rolling friction {code['rolling_model']}",
               "", "[Materials]"]
-    header = ["Material", "Poisson's Ratio", "Solid Density (kg/m3)", "Shear Modulus (Pa)"]
+    ranges = condition.get("solution_set")
+    columns = [("Poisson's Ratio", "poisson_ratio"), ("Solid Density (kg/m3)", "density"),
+               ("Shear Modulus (Pa)", "shear_modulus")]
     if hysteretic:
-        header.append("Yield Strength (Pa)")
-    rows = []
-    for name, m in condition["materials"].items():
-        row = [name, number(m["poisson_ratio"]), number(m["density"]), number(m["shear_modulus"])]
-        if hysteretic:
-            row.append(number(m["yield_strength"]))
-        rows.append(row)
-    lines.append(_csv(header, rows))
+        columns.append(("Yield Strength (Pa)", "yield_strength"))
+    lines += _table(["Material"], columns, [([name], m, MATERIAL_PREFIX.get(name))
+                                            for name, m in condition["materials"].items()], ranges)
     lines += ["", "[Interactions]"]
-    header = ["Material 1", "Material 2", "Coefficient of Restitution", "Coefficient of Static Friction",
-              "Coefficient of Rolling Friction"]
+    columns = [("Coefficient of Restitution", "restitution"), ("Coefficient of Static Friction", "static_friction"),
+               ("Coefficient of Rolling Friction", "rolling_friction")]
     if hysteretic:
-        header += ["Damping Factor", "Stiffness Factor"]
+        columns += [("Damping Factor", "damping_factor"), ("Stiffness Factor", "stiffness_factor")]
     if type_c:
-        header.append("Rolling Viscous Damping Ratio")
+        columns.append(("Rolling Viscous Damping Ratio", "rolling_damping"))
     if jkr:
-        header.append("Surface Energy (J/m2)")
-    rows = []
-    for r in condition["interactions"]:
-        row = [*r["materials"], number(r["restitution"]), number(r["static_friction"]), number(r["rolling_friction"])]
-        if hysteretic:
-            row += [number(r["damping_factor"]), number(r["stiffness_factor"])]
-        if type_c:
-            row.append(number(r["rolling_damping"]))
-        if jkr:
-            row.append(number(r["surface_energy"]))
-        rows.append(row)
-    lines.append(_csv(header, rows))
+        columns.append(("Surface Energy (J/m2)", "surface_energy"))
+    lines += _table(["Material 1", "Material 2"], columns,
+                    [(r["materials"], r, PAIR_PREFIX.get(r["materials"][1]))
+                     for r in condition["interactions"]], ranges)
     part = card["particle"]
     size = part["size_distribution"]
     lines += ["", f"[Particle: {part['shape']}]",
@@ -102,6 +104,36 @@ def condition_block(card: Mapping[str, Any], condition: Mapping[str, Any]) -> st
         lines += [f"Factory size: Random (uniform scale), Min {number(size['scale_min'])}, Max "
                   f"{number(size['scale_max'])} (scale factor on the particle above, by number)", ""]
     return "\n".join(lines)
+
+
+def _table(lead: list[str], columns: list[tuple[str, str]], entries, ranges) -> list[str]:
+    """A CSV table: the ``lead`` columns, then a column (title, property) of ``columns``
+    each, with a low and a high column beside one that a row holds a calibrated value of
+    with a range in ``ranges`` (the card's solution set; empty in the other rows).
+    ``entries`` are (lead cells, values by property, the prefix of that row's parameter
+    keys, or None)."""
+    ranges = ranges or {}
+    ranged = [any(prefix and f"{prefix}.{prop}" in ranges for _, _, prefix in entries) for _, prop in columns]
+    header = list(lead)
+    for (title, _), beside in zip(columns, ranged):
+        header += [title, _titled(title, "low"), _titled(title, "high")] if beside else [title]
+    rows = []
+    for cells, values, prefix in entries:
+        row = list(cells)
+        for (_, prop), beside in zip(columns, ranged):
+            row.append(number(values[prop]))
+            ends = ranges.get(f"{prefix}.{prop}") if beside and prefix else None
+            row += [number(ends["low"]), number(ends["high"])] if ends else [""] * (2 if beside else 0)
+        rows.append(row)
+    said = (["# low, high: the range of a calibrated value over its solution set (the comment at the top)"]
+            if any(ranged) else [])
+    return said + [_csv(header, rows)]
+
+
+def _titled(title: str, end: str) -> str:
+    """``Shear Modulus (Pa)`` -> ``Shear Modulus low (Pa)``; ``Damping Factor`` -> ``Damping Factor low``."""
+    name, bracket, unit = title.partition(" (")
+    return f"{name} {end}{bracket}{unit}"
 
 
 def _csv(header: list[str], rows: list[list[str]]) -> str:

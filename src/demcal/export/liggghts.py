@@ -6,7 +6,8 @@ granular pair style, the material and pair properties (``fix property/global``),
 particle template and its size distribution. What the surrounding script must provide
 is listed in the block's header (SI units, ``atom_style granular``, ``newton off``,
 ``create_box`` with the block's number of atom types, ``fix multisphere`` for a
-multi-sphere template).
+multi-sphere template). Its header comments give each calibrated value beside the range
+of its solution set (:mod:`demcal.export.solution`), or say there is none.
 
 Models (LIGGGHTS-PUBLIC 3.8 sources: ``src/normal_model_hertz.h``,
 ``src/rolling_model_cdt.h``, ``src/rolling_model_epsd.h``, ``src/global_properties.cpp``;
@@ -37,7 +38,8 @@ from __future__ import annotations
 import math
 from typing import Any, Mapping
 
-from demcal.export.text import calibrated_line, lab_line, number, verification_lines, warning_head, wrap
+from demcal.export.text import (calibrated_line, lab_line, number, solution_lines, verification_lines,
+                                 warning_head, wrap)
 
 #: Atom type of each material, in this order.
 MATERIAL_ORDER = ("particle", "steel", "film")
@@ -155,6 +157,8 @@ def _header(card, condition, code, types) -> list[str]:
     if unused:
         lines += wrap(f"not used by LIGGGHTS' {code['contact_model']}: {unused}", "# ")
     lines += wrap(calibrated_line(condition), "# ")
+    for line in solution_lines(condition):
+        lines += wrap(line, "# ")
     lines += wrap("The surrounding script needs: units si, atom_style granular, atom_modify map array, "
                   f"newton off, communicate single vel yes, create_box {len(types)} ... (atom types: "
                   f"{', '.join(f'{t} = {m}' for m, t in types.items())}), {_integration(card)}, and an "

@@ -5,6 +5,8 @@ from __future__ import annotations
 import textwrap
 from typing import Any, Mapping
 
+from demcal.export.solution import THRESHOLD
+
 #: Code key of the card -> its name in a sentence.
 CODE_NAMES = {"edem": "EDEM", "liggghts": "LIGGGHTS 3.8"}
 
@@ -86,6 +88,29 @@ def calibrated_line(condition: Mapping[str, Any]) -> str:
     for source, values in taken.items():
         text += f"; {source}: {', '.join(values)}"
     return text + "; every other value is a default (the JSON card gives each value's source)."
+
+
+def solution_lines(condition: Mapping[str, Any]) -> list[str]:
+    """The condition's solution set as comment text: one line saying what it is, then each
+    calibrated value beside its range (:mod:`demcal.export.solution`), rounded as a reader
+    reads them (:func:`demcal.rounding.ranged`: to two significant digits of the range's
+    width); one line when there is none (the card's warnings say why)."""
+    from demcal.rounding import ranged
+
+    ranges = condition.get("solution_set")
+    if not ranges:
+        return ["solution set: none, so the calibrated values are one point with no ranges (a warning "
+                "above says why)."]
+    params = condition["parameters"]
+    out = ["solution set: each calibrated value with its range over the settings whose fitted surface "
+           f"meets every lab mean (desirability >= {THRESHOLD:g}); not widened for the lab sd, the model's "
+           "prediction interval or the seed noise (the JSON card's solution_set.meaning says more):"]
+    for key, r in ranges.items():
+        if key == "meaning":
+            continue
+        value, low, high = ranged(params[key]["value"], r["low"], r["high"], r["unit"])
+        out.append(f"  {key} = {value}, range {low} to {high}")
+    return out
 
 
 def not_transferable(code: str, wrong: list[str], choose: list[str]) -> str:
