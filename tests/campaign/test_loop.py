@@ -533,8 +533,9 @@ def test_a_stop_while_a_point_on_the_path_waits_names_that_point_and_no_runs(tmp
     from demcal.report.campaign_report import write_report
 
     html = write_report(campaign, tmp_path / "report", [replay], figure_files=False).read_text()
-    assert "outside: the loop stopped (unfinished) at a point on the path" in html
+    assert "outside: the loop stopped at a point on the path" in html and "crosses the lab target. Unfinished" in html
     assert "outside: verified at a point" not in html
+    assert "its loop stopped (unfinished) at a point on the path" in html  # the card's warning agrees
 
 
 def test_a_point_on_the_path_that_misses_gets_its_box_after_all(tmp_path):

@@ -111,7 +111,13 @@ def names() -> list[str]:
 
 
 def get_experiment(name: str) -> Experiment:
+    """The registered test ``name``, or the joint test of registered tests joined by
+    ``+`` (:mod:`demcal.bench.joint`)."""
     _load_builtin()
+    if name not in _REGISTRY and "+" in str(name):
+        from demcal.bench.joint import joint_experiment
+
+        _REGISTRY[name] = joint_experiment(name, get_experiment)
     try:
         return _REGISTRY[name]
     except KeyError:

@@ -30,6 +30,8 @@ result types (:class:`Calibration` and its parts) and :func:`describe` are in
 
 from __future__ import annotations
 
+import dataclasses
+
 from typing import Any
 
 import numpy as np
@@ -347,6 +349,37 @@ def _close_loops(campaign: Campaign, designs: list[DesignFit], notes: list[str],
     return results
 
 
+def compatible_ranges(boxed: Campaign, models: dict, targets) -> dict[str, tuple[float, float]]:
+    """The parameter ranges of the box compatible with every one of ``targets`` within its
+    lab sd: the region where each model predicts inside mean ± sd
+    (:func:`demcal.optimize.overlay.overlay`, Design-Expert's overlay), by parameter key;
+    empty when a target has no sd or no point of the box meets every window."""
+    from demcal.optimize.overlay import overlay
+
+    if not targets or any(t.sd is None or not np.isfinite(t.sd) or t.sd <= 0 for t in targets):
+        return {}
+    region = overlay(models, {t.response: (t.mean - t.sd, t.mean + t.sd) for t in targets}, len(boxed.factors))
+    return {f.parameter: (float(f.to_actual(region.ranges[j][0])), float(f.to_actual(region.ranges[j][1])))
+            for j, f in enumerate(boxed.factors) if j in region.ranges}
+
+
+def _compatible_by_test(boxed: Campaign, models: dict, condition: Condition) -> dict[str, dict[str, tuple]]:
+    """A joint test's compatible ranges of each of its tests alone (its own targets, the
+    same models and box), by test; empty unless two or more of its tests have targets.
+    Beside the ranges of all targets together they show how much each test pins down."""
+    from demcal.bench.registry import get_experiment
+
+    experiment = get_experiment(boxed.test)
+    if not hasattr(experiment, "part_of"):
+        return {}
+    by_test: dict[str, list] = {}
+    for target in condition.targets:
+        by_test.setdefault(experiment.part_of(target.response), []).append(target)
+    if len(by_test) < 2:
+        return {}
+    return {test: compatible_ranges(boxed, models, targets) for test, targets in by_test.items()}
+
+
 def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_range) -> ConditionResult:
     """The ConditionResult of a finished (or stopped) loop."""
     boxed = loop.box.campaign(campaign)
@@ -391,7 +424,11 @@ def _condition_result(campaign: Campaign, condition: Condition, loop, reachable_
     result = ConditionResult(
         condition=condition, chosen=chosen, chosen_coded=coded, desirability=desirability,
         optimization=optimization, factor_ranges=ranges, verdicts=verdicts, verification=list(loop.production),
-        specs=list(loop.specs), notes=notes, reference_predicted=reference_predicted, loop=loop)
+        specs=list(loop.specs), notes=notes, reference_predicted=reference_predicted, loop=loop,
+        compatible=({} if on_path is not None else
+                    compatible_ranges(boxed, corrected or loop.models, condition.targets)),
+        compatible_by_test=({} if on_path is not None else
+                            _compatible_by_test(boxed, corrected or loop.models, condition)))
     for verdict in verdicts:
         verdict.simulated = [float(r.responses[verdict.response]) for r in result.verification
                              if r.status == "done" and verdict.response in r.responses]

@@ -117,6 +117,11 @@ class ConditionResult:
     notes: list[str] = field(default_factory=list)
     reference_predicted: dict[str, float] = field(default_factory=dict)  #: response -> model at the published values
     loop: Any = None  #: the :class:`demcal.campaign.loop.LoopResult` that found it
+    #: parameter key -> (low, high) over the box's region where every target's model
+    #: predicts inside the lab mean ± sd (:func:`demcal.campaign.calibrate.compatible_ranges`)
+    compatible: dict[str, tuple[float, float]] = field(default_factory=dict)
+    #: a joint test's compatible ranges of each of its tests alone, by test
+    compatible_by_test: dict[str, dict[str, tuple[float, float]]] = field(default_factory=dict)
 
     @property
     def solutions(self) -> pd.DataFrame:
@@ -202,6 +207,10 @@ class Calibration:
                 "chosen": result.chosen, "chosen_coded": result.chosen_coded,
                 "desirability": _num(result.desirability),
                 "factor_ranges": {k: list(v) for k, v in result.factor_ranges.items()},
+                "compatible_ranges": {k: list(v) for k, v in result.compatible.items()},
+                **({"compatible_ranges_by_test": {test: {k: list(v) for k, v in ranges.items()}
+                                                  for test, ranges in result.compatible_by_test.items()}}
+                   if result.compatible_by_test else {}),
                 "reference": dict(result.condition.reference),
                 "reference_predicted": result.reference_predicted,
                 "notes": result.notes,

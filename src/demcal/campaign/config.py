@@ -188,6 +188,7 @@ class _Loader(Reader):
         super().__init__(text, path, allow_outside)
         self.import_plugins = import_plugins
         self.samples: dict = {}  # lab records by sample name, from [campaign] lab
+        self.experiment_test = None  # the registered test of [experiment], once read
 
     def campaign(self) -> Campaign:
         self.check_file(CampaignFile)
@@ -195,6 +196,7 @@ class _Loader(Reader):
         upstream = self.upstream(meta.from_campaign, self.data["campaign"], ("campaign",))
         self.samples = self.lab_records(meta.lab)
         experiment, spec, profile = self.experiment()
+        self.experiment_test = experiment
         table = experiment.settings(profile)
         factors = self.factors(experiment, table, profile)
         overlap = sorted(set(spec.settings) & {f.parameter for f in factors})
@@ -549,7 +551,7 @@ class _Loader(Reader):
             from demcal.measure.lab import resolve_targets
 
             angles = resolve_targets(sample, self.path.parent, confine=not self.allow_outside,
-                                     drum_rpm=self.drum_rpm(spec))
+                                     drums=self.drum_speeds(spec))
             for response, angle in angles.items():
                 if response in known and response not in given:
                     sd = angle.sd_deg if math.isfinite(angle.sd_deg) else None
@@ -579,11 +581,24 @@ class _Loader(Reader):
                                         f"or a sample whose lab record gives it")
         return tuple(targets)
 
-    def drum_rpm(self, spec: ConditionTable) -> float | None:
-        """The speed a condition's runs turn a drum at [1/min] (its own setting over the
-        campaign's), None when neither sets ``drum.rpm``."""
-        value = spec.settings.get("drum.rpm", self.data.get("experiment", {}).get("settings", {}).get("drum.rpm"))
-        return None if value is None else float(value)
+    def drum_speeds(self, spec: ConditionTable) -> dict[str, float | None]:
+        """Each drum response of the campaign's test with the speed a condition's runs turn
+        that drum at [1/min] (its own setting over the campaign's; None when neither sets
+        it): ``drum.rpm`` of a drum, ``PART:drum.rpm`` of each drum of a joint test."""
+        settings = {**self.data.get("experiment", {}).get("settings", {}), **spec.settings}
+        experiment = self.experiment_test
+        parts = list(zip(getattr(experiment, "part_names", ()), getattr(experiment, "parts", ())))
+        if not parts:
+            rpm = settings.get("drum.rpm")
+            return {"dynamic_angle_deg": None if rpm is None else float(rpm)}
+        from demcal.bench.joint import renamed
+
+        out = {}
+        for name, part in parts:
+            if "dynamic_angle_deg" in part.responses:
+                rpm = settings.get(f"{name}:drum.rpm")
+                out[renamed("dynamic_angle_deg", name)] = None if rpm is None else float(rpm)
+        return out
 
     def reference(self, values: Mapping, factors, where: tuple) -> dict[str, float]:
         """``[conditions.reference]``: published values of the factors, by parameter."""

@@ -346,6 +346,8 @@ def material_parameters(table: Mapping[str, Any], fixed: Mapping[str, Any], chos
             value, source = table[key].default, "default"
         else:
             value, source = spec.default, "demcal default"
+        if source in ("default", "demcal default") and getattr(spec, "inert", False):
+            continue  # an option left off (a sieve, a clump): the card is as without it
         out[key] = {"value": _json_safe(value), "unit": spec.unit if spec else "-", "source": source,
                     "description": spec.help if spec else ""}
     return out

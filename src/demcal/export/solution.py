@@ -17,6 +17,12 @@ a wider set than this. Each range is the set's extent along one parameter; not e
 combination of values inside the ranges meets the targets. calibration.json does not
 record how many solutions the search found, so the card gives no count.
 
+Where calibrate wrote ``compatible_ranges`` (:func:`demcal.campaign.calibrate.compatible_ranges`:
+the box's region where every target is predicted inside the lab mean +- sd, Design-Expert's
+overlay), the card gives those instead, the set the lab's spread allows, with
+:data:`COMPATIBLE_MEANING`; the narrow desirability set above is what older calibrations
+and a region the box does not hold leave.
+
 The card rounds each end outward to :data:`DIGITS` significant digits (the low end down,
 the high end up), so the rounded range still holds the set; the unrounded ranges stay
 under the condition's ``calibration``.
@@ -47,6 +53,15 @@ MEANING = (
 )
 
 
+COMPATIBLE_MEANING = (
+    "Each range is the extent, along that parameter, of the region of the condition's last design box "
+    "where the fitted response surface (corrected to the production profile) predicts every lab target "
+    "inside the lab mean +- sd (Design-Expert's overlay region, sampled with 2^14 scrambled Sobol points; "
+    f"ends rounded outward to {DIGITS} significant digits); not every combination inside the ranges meets "
+    "the targets, and the surface's own prediction uncertainty (the seed noise it averages) is not added."
+)
+
+
 def solution_set(calibrated: Mapping[str, Any],
                  parameters: Mapping[str, Mapping[str, Any]]) -> tuple[dict[str, Any] | None, str | None]:
     """The card's ``solution_set`` of one condition (its entry ``calibrated`` of
@@ -58,6 +73,9 @@ def solution_set(calibrated: Mapping[str, Any],
     meeting the targets, or no ``factor_ranges`` at all (an older calibration.json).
     """
     ranges = calibrated.get("factor_ranges")
+    meaning = MEANING
+    if calibrated.get("compatible_ranges"):  # the lab window's region, where calibrate wrote it
+        ranges, meaning = calibrated["compatible_ranges"], COMPATIBLE_MEANING
     chosen = calibrated.get("chosen") or {}
     out: dict[str, Any] = {}
     for key in chosen:
@@ -67,7 +85,7 @@ def solution_set(calibrated: Mapping[str, Any],
         unit = parameters.get(key, {}).get("unit", "-")
         out[key] = {"low": outward(min(ends), down=True), "high": outward(max(ends), down=False), "unit": unit}
     if out:
-        out["meaning"] = MEANING
+        out["meaning"] = meaning
         return out, None
     return None, _why_none(calibrated, ranges)
 
@@ -84,7 +102,9 @@ def _why_none(calibrated: Mapping[str, Any], ranges) -> str:
     if isinstance(on_path, Mapping):
         where = "the end of" if on_path.get("limit") else "a point on"
         way = on_path.get("way")
-        return (f"it was verified at {where} the path of steepest {way or 'ascent'}, with no design around it, "
+        status = calibrated.get("status", "verified")
+        done = "it was verified" if status == "verified" else f"its loop stopped ({status})"
+        return (f"{done} at {where} the path of steepest {way or 'ascent'}, with no design around it, "
                 "so the card gives one point and no ranges")
     if ranges is None:
         return ("calibration.json records no factor_ranges for it (written by an older demcal or by hand); "

@@ -301,14 +301,17 @@ class LabRecord:
 
 def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
                     out_dir: str | Path | None = None, confine: bool = False,
-                    drum_rpm: float | None = None) -> dict[str, MeasuredAngle]:
+                    drum_rpm: float | None = None,
+                    drums: Mapping[str, float | None] | None = None) -> dict[str, MeasuredAngle]:
     """The record's measured angles, measuring photos and readings where given.
 
     Returns ``{"repose_angle_deg": ..., "sliding_angle_deg": ..., "dynamic_angle_deg":
     ...}`` (the keys present in the record). Photos are found relative to ``base_dir``
     (and with ``confine`` must lie inside it); annotated PNGs go to ``out_dir``. The drum's
     angle is the reading at ``drum_rpm`` (the speed the campaign turns its drum at), or the
-    only reading when ``drum_rpm`` is None.
+    only reading when ``drum_rpm`` is None; ``drums`` names several drum responses with
+    their speeds instead (a joint test's drums at two speeds: ``{"dynamic_angle_deg": 5,
+    "dynamic_angle_deg_2": 15}``).
 
     Raises
     ------
@@ -343,7 +346,8 @@ def resolve_targets(record: LabRecord, base_dir: str | Path | None = None,
         level = f", H0 {inc.H0_mm:g} mm" if inc.H0_mm else ""
         out["sliding_angle_deg"] = MeasuredAngle(inc.mean_deg, inc.sd_deg, inc.n, f"incline readings{level}")
     if record.drum:
-        out["dynamic_angle_deg"] = drum_reading(record, drum_rpm).angle
+        for response, rpm in (drums if drums is not None else {"dynamic_angle_deg": drum_rpm}).items():
+            out[response] = drum_reading(record, rpm).angle
     return out
 
 

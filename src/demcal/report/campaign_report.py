@@ -97,6 +97,38 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
 # --------------------------------------------------------------------------- the answer first
 
 
+def _ranges_by_test(report: HtmlReport, c, cal: Calibration, n) -> None:
+    """A joint test's compatible ranges (the box's region where every target's model
+    predicts inside its lab mean ± sd) of each test alone beside those of all together:
+    how much each further test pins down."""
+    rows = []
+    for result in cal.conditions:
+        if not result.compatible_by_test:
+            continue
+        for f in c.factors:
+            row = {"condition": result.condition.name, "factor": f.name}
+            widths = []
+            for test, ranges in result.compatible_by_test.items():
+                lo, hi = ranges.get(f.parameter, (np.nan, np.nan))
+                row[f"{test} alone"] = f"{lo:.3g} to {hi:.3g}" if np.isfinite(lo) else "none in the box"
+                widths.append(hi - lo)
+            lo, hi = result.compatible.get(f.parameter, (np.nan, np.nan))
+            row["all together"] = f"{lo:.3g} to {hi:.3g}" if np.isfinite(lo) else "none in the box"
+            narrowest = np.nanmin(widths) if np.isfinite(widths).any() else np.nan
+            row["together / narrowest alone"] = (f"{(hi - lo) / narrowest:.2f}" if narrowest > 0 and np.isfinite(lo)
+                                                 else "-")
+            rows.append(row)
+    if not rows:
+        return
+    report.paragraph("Each test of the joint campaign alone and all together: the ranges of the design box "
+                     "where every one of their targets is predicted inside the lab mean ± sd (Design-Expert's "
+                     "overlay region, sampled). A range that shrinks from one test to all is pinned down by the "
+                     "others; one that does not, no test here pins.")
+    report.table(pd.DataFrame(rows).set_index("condition"), n("compatible_ranges_by_test"),
+                 caption="Ranges compatible with the lab targets, each test alone and all together",
+                 values={"factor": {f.name: f.label for f in c.factors}})
+
+
 def _summary(report: HtmlReport, cal: Calibration, several: bool) -> dict:
     """What the first screen says of one campaign (template ``summary.html.j2``): per
     condition the calibrated values with their solution-set ranges, the verdict and the
@@ -446,6 +478,7 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                  caption="Calibrated parameters per condition with the solution-set ranges"
                          + (f", and the {ref} values" if ref in params.columns else "") + _cite(c, "calibrated"),
                  values={"factor": {f.name: f.label for f in c.factors}})
+    _ranges_by_test(report, c, cal, n)
     pred = []
     for result in cal.conditions:
         outside = _outside_box(c, result.condition.reference)

@@ -1,0 +1,185 @@
+"""Joint calibration: several tests as one experiment, one model per response, one
+solve over every target, and each test's solution set alone beside the joint one
+(tests/campaign/joint_testbench.py: the truth is known)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from demcal.bench.registry import get_experiment, resolve_settings
+from demcal.campaign.calibrate import calibrate
+from demcal.campaign.config import parse_campaign
+from demcal.campaign.runner import run_campaign
+from demcal.errors import ConfigError
+
+import joint_testbench as J
+from conftest import InlineExecutor
+
+TRUTH = {"particle.static_friction": 0.45, "particle.rolling_friction": 0.17}
+SLOPE = J.slope_deg(0.45, 0.17)
+SPIN = J.spin_deg(0.17)
+
+CAMPAIGN = f"""\
+[campaign]
+name = "joint"
+[experiment]
+test = "TEST"
+profile = "tiny"
+plugins = ["joint_testbench"]
+[[factors]]
+name = "B"
+parameter = "particle.static_friction"
+low = 0.3
+high = 0.5
+hard_low = 0.3
+hard_high = 0.5
+[[factors]]
+name = "C"
+parameter = "particle.rolling_friction"
+low = 0.1
+high = 0.3
+hard_low = 0.1
+hard_high = 0.3
+[design]
+type = "central-composite"
+variant = "face-centred"
+[model]
+order = "quadratic"
+reduce_alpha = false
+RESPONSES
+[[conditions]]
+name = "truth"
+[conditions.targets]
+TARGETS
+[verification]
+replicates = 2
+"""
+
+
+def _campaign(tmp_path, test: str, responses: list[str]):
+    targets = {"slope_deg": f"slope_deg = {{ mean = {SLOPE:.6f}, sd = 0.5 }}",
+               "spin_deg": f"spin_deg = {{ mean = {SPIN:.6f}, sd = 0.5 }}"}
+    text = (CAMPAIGN.replace("TEST", test)
+            .replace("RESPONSES", "".join(f'[[responses]]\nname = "{r}"\n' for r in responses))
+            .replace("TARGETS", "\n".join(targets[r] for r in responses)))
+    folder = tmp_path / test.replace("+", "_")
+    folder.mkdir()
+    path = folder / "campaign.toml"
+    path.write_text(text)
+    return parse_campaign(text, path)
+
+
+@pytest.fixture(scope="module")
+def calibrations(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("joint")
+    out = {}
+    for test, responses in (("test-slope", ["slope_deg"]), ("test-spin", ["spin_deg"]),
+                            ("test-slope+test-spin", ["slope_deg", "spin_deg"])):
+        campaign = _campaign(tmp, test, responses)
+        run_campaign(campaign, executor=InlineExecutor(), progress=False)
+        out[test] = (campaign, calibrate(campaign, executor=InlineExecutor(), progress=False))
+    return out
+
+
+def _width(ranges, key):
+    lo, hi = ranges[key]
+    return hi - lo
+
+
+def test_the_joint_set_holds_the_truth_and_is_smaller_than_each_test_alone(calibrations):
+    """The ranges compatible with every lab target within its sd (the overlay region)."""
+    campaign, cal = calibrations["test-slope+test-spin"]
+    (result,) = cal.conditions
+    joint = result.compatible
+    for key, value in TRUTH.items():
+        lo, hi = joint[key]
+        assert lo <= value <= hi, (key, joint)
+    # each test alone, on the same models (the report's table) ...
+    alone = result.compatible_by_test
+    assert set(alone) == {"test-slope", "test-spin"}
+    # ... is what each test's own campaign finds (its own design and model: a few % apart)
+    for test in ("test-slope", "test-spin"):
+        own = calibrations[test][1].conditions[0].compatible
+        for key in TRUTH:
+            assert alone[test][key] == pytest.approx(own[key], abs=0.01), (test, key)
+            lo, hi = own[key]
+            assert lo <= TRUTH[key] <= hi
+    # the slope angle alone leaves a band of (mu, mu_r): it spans most of mu's levels
+    assert _width(alone["test-slope"], "particle.static_friction") > 0.1
+    # the spin angle alone pins mu_r to +-0.5 deg / 40 deg per unit (the fitted quadratic's
+    # slope and curvature, from nine noisy runs, within 20 % of it), and says nothing of mu
+    assert _width(alone["test-spin"], "particle.rolling_friction") == pytest.approx(1.0 / 40.0, rel=0.2)
+    assert _width(alone["test-spin"], "particle.static_friction") == pytest.approx(0.2, abs=0.002)
+    # together: smaller than either alone in every parameter
+    for key in TRUTH:
+        assert _width(joint, key) <= min(_width(alone[t], key) for t in alone) + 1e-9
+    assert _width(joint, "particle.static_friction") < 0.5 * _width(alone["test-spin"], "particle.static_friction")
+    assert _width(joint, "particle.static_friction") < 0.5 * _width(alone["test-slope"], "particle.static_friction")
+    saved = json.loads((campaign.workdir / "calibration.json").read_text())
+    assert set(saved["conditions"][0]["compatible_ranges_by_test"]) == {"test-slope", "test-spin"}
+    assert saved["conditions"][0]["compatible_ranges"]["particle.static_friction"] == list(joint["particle.static_friction"])
+    # verified against both targets
+    assert {v.response for v in result.verdicts} == {"slope_deg", "spin_deg"}
+    assert result.verified and all(len(v.simulated) >= 2 for v in result.verdicts)
+
+
+def test_a_joint_test_shares_the_material_and_keeps_each_benchs_own_keys():
+    joint = get_experiment("test-slope+test-spin")
+    table = joint.settings("tiny")
+    assert "particle.static_friction" in table and "particles.count" not in table
+    assert {"test-slope:particles.count", "test-spin:particles.count"} <= set(table)
+    s = resolve_settings(joint, {"particle.static_friction": 0.5, "test-spin:particles.count": 7}, "tiny")
+    slope, spin = joint.split(s)
+    assert slope == {"particle.static_friction": 0.5, "particle.rolling_friction": 0.2, "particles.count": 100}
+    assert spin["particles.count"] == 7 and spin["particle.static_friction"] == 0.5
+    result = joint.run({"particle.rolling_friction": 0.25}, seed=3, profile="tiny")
+    assert set(result.responses) == {"slope_deg", "spin_deg"} and result.particles == 200
+    assert result.responses["spin_deg"] == pytest.approx(J.spin_deg(0.25), abs=5 * J.NOISE)
+
+
+def test_a_test_named_twice_is_a_second_part_with_its_own_responses():
+    twice = get_experiment("test-spin+test-spin")
+    assert twice.part_names == ["test-spin", "test-spin#2"]
+    assert twice.responses == ("spin_deg", "spin_deg_2")
+    assert "test-spin#2:particles.count" in twice.settings("tiny")
+    assert twice.part_of("spin_deg_2") == "test-spin#2"
+
+
+@pytest.mark.parametrize("name, words", [
+    ("test-slope+", "has an empty part"),
+    ("test-slope+test-magic", "unknown virtual test 'test-magic'"),
+])
+def test_bad_joint_names_are_one_sentence(name, words):
+    with pytest.raises(ConfigError) as err:
+        get_experiment(name)
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_report_shows_each_test_alone_and_all_together(calibrations, tmp_path):
+    import pandas as pd
+
+    from demcal.report.campaign_report import write_report
+
+    campaign, cal = calibrations["test-slope+test-spin"]
+    page = write_report(campaign, tmp_path / "report", calibrations=[cal])
+    assert "Ranges compatible with the lab targets, each test alone and all together" in page.read_text()
+    table = pd.read_csv(tmp_path / "report" / "tables" / "compatible_ranges_by_test.csv")
+    assert list(table.columns[2:]) == ["test-slope alone", "test-spin alone", "all together",
+                                       "together / narrowest alone"]
+    assert len(table) == 2
+
+
+def test_the_card_carries_the_ranges_the_lab_window_allows(calibrations):
+    from demcal.export.card import build_card
+    from demcal.export.solution import COMPATIBLE_MEANING
+
+    campaign, cal = calibrations["test-slope+test-spin"]
+    card = build_card(campaign, json.loads((campaign.workdir / "calibration.json").read_text()))
+    (condition,) = card["conditions"]
+    solution = condition["solution_set"]
+    assert solution["meaning"] == COMPATIBLE_MEANING
+    for key, value in TRUTH.items():
+        assert solution[key]["low"] <= value <= solution[key]["high"]
+        assert solution[key]["low"] <= condition["parameters"][key]["value"] <= solution[key]["high"]
