@@ -108,6 +108,18 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
     ("model", "order"): "`linear`, `2fi`, `quadratic` (default) or `cubic`.",
     ("model", "reduce_alpha"): "drop terms whose p-value exceeds it (backward elimination), "
                                "e.g. `0.05`; `false` or absent: the full model.",
+    ("holdout[]", "test"): "**required**. A virtual test the calibration does not fit, run at each "
+                           "condition's calibrated values (`demcal bench --list`; a joint test's names too).",
+    ("holdout[]", "response"): "its response compared with the lab's; default the test's first.",
+    ("holdout[]", "profile"): "the profile it runs at; default the calibration's production profile "
+                              "(the test's first profile where it has none of that name).",
+    ("holdout[]", "replicates"): "runs at each condition's values; default `[verification] replicates`.",
+    ("holdout[]", "settings"): "table `KEY = VALUE` of the test's own settings; the calibrated material "
+                               "(the chosen values and the campaign's fixed material settings) comes "
+                               "from the calibration.",
+    ("holdout[]", "targets"): "table `CONDITION = { mean = ..., sd = ... }` (or `= mean`): the lab value "
+                              "per condition; default the condition's sample's record. A condition "
+                              "with neither is refused when the file loads.",
     ("conditions[]", "name"): "**required**, unique. One material state (a moisture content, a "
                               "batch): the calibration solves one parameter set per condition.",
     ("conditions[]", "label"): "long name in the report; default the name.",

@@ -5,7 +5,8 @@
 sees the rolling friction alone, ``spin_deg = 30 + 40 (mu_r - 0.2)``. Each has Gaussian
 seed noise of sd 0.3 deg and costs nothing. One slope angle leaves a line of (mu, mu_r)
 solutions; the spin angle cuts it: the joint solution set must be smaller than either
-test's alone and hold the truth.
+test's alone and hold the truth. ``test-tilt`` (``tilt_deg = 25 + 20 (mu - 0.4)``) is
+the hold-out: predicted with the calibrated values, never fitted.
 """
 
 from __future__ import annotations
@@ -63,5 +64,19 @@ class SpinBench(_Bench):
         return spin_deg(mu_r)
 
 
+def tilt_deg(mu: float) -> float:
+    return 25.0 + 20.0 * (mu - 0.4)
+
+
+class TiltBench(_Bench):
+    name = "test-tilt"
+    description = "test double: an incline angle of mu alone (the hold-out)"
+    responses = ("tilt_deg",)
+
+    def angle(self, mu, mu_r):
+        return tilt_deg(mu)
+
+
 register(SlopeBench())
 register(SpinBench())
+register(TiltBench())

@@ -58,14 +58,14 @@ replicates = 2
 """
 
 
-def _campaign(tmp_path, test: str, responses: list[str]):
+def _campaign(tmp_path, test: str, responses: list[str], extra: str = ""):
     targets = {"slope_deg": f"slope_deg = {{ mean = {SLOPE:.6f}, sd = 0.5 }}",
                "spin_deg": f"spin_deg = {{ mean = {SPIN:.6f}, sd = 0.5 }}"}
     text = (CAMPAIGN.replace("TEST", test)
             .replace("RESPONSES", "".join(f'[[responses]]\nname = "{r}"\n' for r in responses))
-            .replace("TARGETS", "\n".join(targets[r] for r in responses)))
+            .replace("TARGETS", "\n".join(targets[r] for r in responses))) + extra
     folder = tmp_path / test.replace("+", "_")
-    folder.mkdir()
+    folder.mkdir(exist_ok=True)
     path = folder / "campaign.toml"
     path.write_text(text)
     return parse_campaign(text, path)
@@ -183,3 +183,68 @@ def test_the_card_carries_the_ranges_the_lab_window_allows(calibrations):
     for key, value in TRUTH.items():
         assert solution[key]["low"] <= value <= solution[key]["high"]
         assert solution[key]["low"] <= condition["parameters"][key]["value"] <= solution[key]["high"]
+
+
+HOLDOUT = f"""
+[[holdout]]
+test = "test-tilt"
+replicates = 3
+[holdout.settings]
+"particles.count" = 50
+[holdout.targets]
+truth = {{ mean = {J.tilt_deg(0.45):.6f}, sd = 0.5 }}
+
+[[holdout]]
+test = "test-tilt"
+replicates = 2
+[holdout.targets]
+truth = {{ mean = {J.tilt_deg(0.45) + 3.0:.6f}, sd = 0.5 }}
+"""
+
+
+def test_a_holdout_test_is_predicted_with_the_calibrated_values(tmp_path):
+    """Calibrated on the slope and spin angles, the tilt angle (never fitted) is run at
+    the calibrated values: it agrees with a lab value at the truth and misses one 3 deg
+    off it; calibration.json and the report say so."""
+    from demcal.report.campaign_report import write_report
+
+    campaign = _campaign(tmp_path, "test-slope+test-spin", ["slope_deg", "spin_deg"], extra=HOLDOUT)
+    assert [h.test for h in campaign.holdouts] == ["test-tilt", "test-tilt"]
+    run_campaign(campaign, executor=InlineExecutor(), progress=False)
+    cal = calibrate(campaign, executor=InlineExecutor(), progress=False)
+    (result,) = cal.conditions
+    good, bad = result.holdouts
+    assert (good.runs, len(good.simulated), bad.runs, len(bad.simulated)) == (3, 3, 2, 2)
+    mu = result.chosen["particle.static_friction"]
+    assert good.mean == pytest.approx(J.tilt_deg(mu), abs=3 * J.NOISE)
+    assert good.verdict.startswith("agrees") and bad.verdict.startswith("misses")
+    saved = json.loads((campaign.workdir / "calibration.json").read_text())["conditions"][0]["holdout"]
+    assert [h["verdict"][:6] for h in saved] == ["agrees", "misses"] and saved[0]["profile"] == "tiny"
+    page = write_report(campaign, tmp_path / "report", calibrations=[cal]).read_text()
+    assert "Hold-out tests" in page and "test-tilt" in page
+    # the report replays them from the store, running nothing
+    again = calibrate(campaign, simulate=False, progress=False)
+    assert again.conditions[0].holdouts[0].simulated == good.simulated
+
+
+@pytest.mark.parametrize("extra, words", [
+    ('\n[[holdout]]\ntest = "test-tilt"\n', "hold-out test 'test-tilt' has no lab value for condition 'truth'"),
+    ('\n[[holdout]]\ntest = "test-tilt"\nresponse = "angle"\n[holdout.targets]\ntruth = 25\n',
+     "measures no 'angle'"),
+    ('\n[[holdout]]\ntest = "test-tilt"\n[holdout.targets]\ntruth = 25\nother = 26\n', "no condition"),
+    ('\n[[holdout]]\ntest = "test-magic"\n', "unknown virtual test 'test-magic'"),
+])
+def test_bad_holdouts_are_one_sentence(tmp_path, extra, words):
+    with pytest.raises(ConfigError) as err:
+        _campaign(tmp_path, "test-slope+test-spin", ["slope_deg", "spin_deg"], extra=extra)
+    assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_describe_says_each_holdout(tmp_path):
+    from demcal.campaign.calibrate import describe
+
+    campaign = _campaign(tmp_path, "test-slope+test-spin", ["slope_deg", "spin_deg"], extra=HOLDOUT)
+    run_campaign(campaign, executor=InlineExecutor(), progress=False)
+    text = describe(calibrate(campaign, executor=InlineExecutor(), progress=False))
+    lines = [line for line in text.splitlines() if "hold-out test-tilt" in line]
+    assert len(lines) == 2 and "(95 %, n = 3): agrees" in lines[0] and ": misses" in lines[1], lines

@@ -25,7 +25,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-from demcal.bench.registry import RunResult, Setting, resolve_settings
+from demcal.bench.registry import RunResult, Setting, get_experiment, register_builder, resolve_settings
 from demcal.errors import ConfigError
 
 #: Settings that describe the material, not the bench: shared by every part.
@@ -155,3 +155,12 @@ def joint_experiment(name: str, get) -> JointExperiment:
         raise ConfigError(f"joint test '{name}' has an empty part; join test names with '+', e.g. "
                           "repose-funnel+drum.")
     return JointExperiment([get(t) for t in tests])
+
+
+def _build(name: str) -> JointExperiment | None:
+    """A joint test for a ``+``-joined ``name`` (:func:`demcal.bench.registry.get_experiment`
+    asks); None for any other name."""
+    return joint_experiment(name, get_experiment) if JOIN in str(name) else None
+
+
+register_builder(_build)

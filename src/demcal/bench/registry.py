@@ -110,14 +110,27 @@ def names() -> list[str]:
     return sorted(_REGISTRY)
 
 
-def get_experiment(name: str) -> Experiment:
-    """The registered test ``name``, or the joint test of registered tests joined by
-    ``+`` (:mod:`demcal.bench.joint`)."""
-    _load_builtin()
-    if name not in _REGISTRY and "+" in str(name):
-        from demcal.bench.joint import joint_experiment
+#: Functions that build a test from a name no module registered, each returning None for
+#: a name that is not theirs (:mod:`demcal.bench.joint` builds ``+``-joined names).
+_BUILDERS: list = []
 
-        _REGISTRY[name] = joint_experiment(name, get_experiment)
+
+def register_builder(build) -> None:
+    """Add ``build(name) -> Experiment | None`` to the builders :func:`get_experiment`
+    asks for a name no module registered."""
+    _BUILDERS.append(build)
+
+
+def get_experiment(name: str) -> Experiment:
+    """The registered test ``name``, or the one a builder makes of it (the joint test of
+    registered tests joined by ``+``: :mod:`demcal.bench.joint`)."""
+    _load_builtin()
+    if name not in _REGISTRY:
+        for build in _BUILDERS:
+            made = build(name)
+            if made is not None:
+                _REGISTRY[name] = made
+                break
     try:
         return _REGISTRY[name]
     except KeyError:

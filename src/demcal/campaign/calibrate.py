@@ -98,6 +98,9 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     notes = warnings + chain_notes(campaign) + [note for note in notes if note not in warnings]
     results = _close_loops(campaign, fits, notes, simulate=simulate, workers=workers, scheduler=scheduler,
                            progress=progress, retry_failed=retry_failed, executor=executor)
+    if campaign.holdouts:
+        _holdouts(campaign, results, simulate=simulate, workers=workers, scheduler=scheduler, progress=progress,
+                  retry_failed=retry_failed, executor=executor)
     first = fits[0]
     with Store(store_path, readonly=True) as store:
         lab_noise = lab_noise_warnings(campaign, store.records())
@@ -106,6 +109,54 @@ def calibrate(campaign: Campaign, *, workers: int | None = None, scheduler: str 
     if simulate:
         write_json_atomic(campaign.workdir / "calibration.json", calibration.to_dict())
     return calibration
+
+
+def holdout_specs(campaign: Campaign, result: ConditionResult, ci: int) -> list[tuple]:
+    """The hold-out runs of one condition: ``(holdout, specs)`` for each ``[[holdout]]``,
+    each run at the condition's calibrated material (the chosen values, the campaign's
+    and the condition's fixed material settings: the keys a joint test shares) with the
+    hold-out's own settings, at its profile (default the production profile where the
+    test has it)."""
+    from demcal.bench.joint import is_shared
+    from demcal.bench.registry import get_experiment
+    from demcal.campaign.seeds import HOLDOUT_SEED
+
+    production = production_profile(campaign)
+    material = {k: v for k, v in {**campaign.settings, **result.condition.fixed, **result.chosen}.items()
+                if is_shared(k)}
+    out = []
+    for hi, holdout in enumerate(campaign.holdouts or ()):
+        test = get_experiment(holdout.test)
+        profile = holdout.profile or (production if production in test.profiles else test.profiles[0])
+        keys = test.settings(profile)
+        settings = {**{k: v for k, v in material.items() if k in keys}, **holdout.settings}
+        n = holdout.replicates or max(1, campaign.verification_replicates)
+        seed = campaign.verification_seed + HOLDOUT_SEED + 1000 * ci + 100 * hi
+        out.append((holdout, profile, [
+            RunSpec("holdout", f"holdout {holdout.test} {result.condition.name} #{r + 1}", holdout.test, profile,
+                    dict(result.chosen), settings, seed + r) for r in range(n)]))
+    return out
+
+
+def _holdouts(campaign: Campaign, results: list[ConditionResult], *, simulate: bool, **run) -> None:
+    """Run (``simulate``) or read from the store the hold-out tests at each condition's
+    calibrated values and attach their results."""
+    from demcal.campaign.calibration import HoldoutResult
+
+    planned = [(result, holdout_specs(campaign, result, ci)) for ci, result in enumerate(results)]
+    if simulate:
+        specs = [spec for _, plans in planned for _, _, specs in plans for spec in specs]
+        run_specs(campaign, specs, desc=f"{campaign.name} hold-out", **run)
+    with Store(campaign.store_path, readonly=True) as store:
+        for result, plans in planned:
+            for holdout, profile, specs in plans:
+                found = {r.key: r for r in store.records([s.key for s in specs])}
+                done = [found[s.key] for s in specs if s.key in found and found[s.key].status == "done"]
+                target = holdout.targets[result.condition.name]
+                result.holdouts.append(HoldoutResult(
+                    test=holdout.test, response=holdout.response, profile=profile, target=target.mean,
+                    lab_sd=target.sd, runs=len(specs),
+                    simulated=[float(r.responses[holdout.response]) for r in done if holdout.response in r.responses]))
 
 
 def _design_table(campaign: Campaign, store: Store) -> tuple[pd.DataFrame, dict[str, int]]:

@@ -102,6 +102,55 @@ class ResponseVerdict:
 
 
 @dataclass
+class HoldoutResult:
+    """A test the calibration did not fit (``[[holdout]]``), run at one condition's
+    calibrated values, against its lab value. The rule is the verification's: the
+    simulated mean inside the lab mean ± sd agrees."""
+
+    test: str
+    response: str
+    profile: str
+    target: float
+    lab_sd: float | None
+    simulated: list[float]  #: each replicate
+    runs: int  #: replicates asked for
+
+    @property
+    def mean(self) -> float:
+        return float(np.mean(self.simulated)) if self.simulated else float("nan")
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        """The 95 % confidence interval of the simulated mean (Student's t), NaNs with
+        fewer than two runs."""
+        n = len(self.simulated)
+        if n < 2:
+            return float("nan"), float("nan")
+        from scipy import stats
+
+        half = float(stats.t.ppf(0.975, n - 1)) * float(np.std(self.simulated, ddof=1)) / np.sqrt(n)
+        return self.mean - half, self.mean + half
+
+    @property
+    def verdict(self) -> str:
+        if len(self.simulated) < self.runs:
+            return f"{len(self.simulated)} of {self.runs} runs done"
+        if self.lab_sd is None:
+            return f"simulated {self.mean:.2f} against the lab's {self.target:g} (no lab sd to judge by)"
+        miss = self.mean - self.target
+        if abs(miss) <= self.lab_sd:
+            return "agrees: the simulated mean lies inside the lab mean ± sd"
+        return (f"misses: the simulated mean lies {abs(miss):.2f} {'above' if miss > 0 else 'below'} the lab "
+                f"mean, outside its sd {self.lab_sd:g}")
+
+    def to_dict(self) -> dict:
+        lo, hi = self.interval
+        return {"test": self.test, "response": self.response, "profile": self.profile, "target": self.target,
+                "lab_sd": self.lab_sd, "simulated": self.simulated, "simulated_mean": _num(self.mean),
+                "interval_95": [_num(lo), _num(hi)], "runs": self.runs, "verdict": self.verdict}
+
+
+@dataclass
 class ConditionResult:
     """The calibration of one condition (e.g. one moisture content)."""
 
@@ -122,6 +171,8 @@ class ConditionResult:
     compatible: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: a joint test's compatible ranges of each of its tests alone, by test
     compatible_by_test: dict[str, dict[str, tuple[float, float]]] = field(default_factory=dict)
+    #: the campaign's hold-out tests run at these values (``[[holdout]]``)
+    holdouts: list[HoldoutResult] = field(default_factory=list)
 
     @property
     def solutions(self) -> pd.DataFrame:
@@ -208,6 +259,7 @@ class Calibration:
                 "desirability": _num(result.desirability),
                 "factor_ranges": {k: list(v) for k, v in result.factor_ranges.items()},
                 "compatible_ranges": {k: list(v) for k, v in result.compatible.items()},
+                **({"holdout": [h.to_dict() for h in result.holdouts]} if result.holdouts else {}),
                 **({"compatible_ranges_by_test": {test: {k: list(v) for k, v in ranges.items()}
                                                   for test, ranges in result.compatible_by_test.items()}}
                    if result.compatible_by_test else {}),
@@ -272,7 +324,7 @@ def describe(calibration: Calibration) -> str:
     the loop's notes read as short sentences (:mod:`demcal.campaign.wording`).
     calibration.json keeps every digit and the loop's own words."""
     from demcal.campaign import wording
-    from demcal.rounding import ranged, rounded
+    from demcal.rounding import measured, ranged, rounded
 
     c = calibration.campaign
     words = wording.Words(c)
@@ -306,6 +358,13 @@ def describe(calibration: Calibration) -> str:
                                                  in fixed[result.condition.name].items() if source != SOURCE_DEFAULT))
         for v in result.verdicts:
             lines.extend(_verdict_lines(w, result, v, rounded))
+        for h in result.holdouts:
+            lab = measured(h.target, h.lab_sd if h.lab_sd else float("nan"))
+            lo, hi = h.interval
+            sim = (f"{measured(h.mean, (hi - lo) / 2)} (95 %, n = {len(h.simulated)})" if np.isfinite(lo) else
+                   (f"{rounded(h.mean, h.lab_sd or float('nan'))} (n = {len(h.simulated)})" if h.simulated
+                    else "not simulated yet"))
+            lines.append(f"  hold-out {h.test}, {w.title(h.response)}: lab {lab}, simulated {sim}: {h.verdict}")
         lines.extend(f"  note: {note}" for note in wording.notes(c, result))
     for note in calibration.notes:
         if note not in calibration.warnings:

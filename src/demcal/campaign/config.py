@@ -50,8 +50,9 @@ from demcal.campaign.plugins import import_plugins, plugin_problem  # noqa: F401
 from demcal.campaign.reader import Reader, allowed_keys, key_lines, read_toml_text
 from demcal.campaign.schema import (CAPTION_KEYS, BudgetTable, CalibrationConfig, CampaignFile,  # noqa: F401
                                     CampaignTable, Condition, ConditionTable, DesignConfig, DesignTable,
-                                    ExecutorConfig, ExperimentTable, Factor, FactorTable, ModelTable, ReportTable,
-                                    Response, RunsTable, Target, Upstream, VerificationTable, _is_angle)
+                                    ExecutorConfig, ExperimentTable, Factor, FactorTable, Holdout, HoldoutTable,
+                                    ModelTable, ReportTable, Response, RunsTable, Target, Upstream,
+                                    VerificationTable, _is_angle)
 from demcal.doe.factors import default_names
 from demcal.errors import ConfigError
 
@@ -88,6 +89,9 @@ class Campaign:
     lab_file: Path | None = None  #: ``[campaign] lab``: the lab records' file, if named
     #: ``[report] captions``: key of :data:`CAPTION_KEYS` -> the published source it reproduces
     captions: Mapping[str, str] = field(default_factory=dict)
+    #: ``[[holdout]]``: tests predicted with the calibrated values, not fitted (None: none,
+    #: so that a campaign without them keeps its hash)
+    holdouts: tuple[Holdout, ...] | None = None
 
     @property
     def factor_names(self) -> list[str]:
@@ -226,7 +230,8 @@ class _Loader(Reader):
             verification_replicates=verification.replicates, verification_seed=verification.seed,
             executor=self.executor(), calibration=calibration, workdir=workdir,
             title=meta.name if report.title is None else report.title, reference_table=report.reference_table,
-            lab_file=meta.lab, captions=dict(report.captions))
+            lab_file=meta.lab, captions=dict(report.captions),
+            holdouts=self.holdouts(conditions, experiment, profile) or None)
 
     def location(self) -> tuple[CampaignTable, Path]:
         """``[campaign]`` and the campaign's workdir (the results' folder)."""
@@ -375,6 +380,66 @@ class _Loader(Reader):
         return {**settings, "particles.sizes": "sieve",
                 **_canonical(table, {"particles.sieve_mm": record.sieve.edges_mm.tolist(),
                                      "particles.sieve_percent": record.sieve.mass_percent.tolist()})}
+
+    def holdouts(self, conditions, experiment, profile) -> tuple[Holdout, ...]:
+        """``[[holdout]]``: each test predicted with the calibrated values, its response,
+        settings and a lab value for every condition (its own ``targets``, else the
+        condition's sample's record)."""
+        from demcal.bench.registry import get_experiment
+        from demcal.measure.lab import resolve_targets
+
+        out = []
+        for i, data in enumerate(self.tables("holdout")):
+            where = ("holdout", i)
+            spec = self.read(HoldoutTable, data, where)
+            try:
+                test = get_experiment(spec.test)
+            except ConfigError as exc:
+                plugins = self.data.get("experiment", {}).get("plugins", [])
+                if plugins and not self.import_plugins:
+                    raise self.error(where + ("test",),
+                                     f"unknown virtual test '{spec.test}' among those registered; the plugins that "
+                                     f"may register it ({', '.join(plugins)}) are imported only by the commands "
+                                     "that run simulations (run, calibrate)") from None
+                raise self.error(where + ("test",), str(exc)) from None
+            response = spec.response or test.responses[0]
+            if response not in test.responses:
+                raise self.error(where + ("response",), f"hold-out test '{spec.test}' measures no '{response}'; "
+                                                        f"its responses: {', '.join(test.responses)}")
+            if spec.profile is not None and spec.profile not in test.profiles:
+                raise self.error(where + ("profile",), f"hold-out test '{spec.test}' has no profile "
+                                                       f"'{spec.profile}'; choose {', '.join(test.profiles)}")
+            run_profile = spec.profile or (profile if profile in test.profiles else test.profiles[0])
+            table = test.settings(run_profile)
+            for key, value in spec.settings.items():
+                self.check_setting(test, table, run_profile, key, value, where + ("settings", key))
+            targets = {}
+            for j, condition in enumerate(conditions):
+                given = spec.targets.get(condition.name)
+                at = where + ("targets", condition.name)
+                if isinstance(given, Mapping):
+                    targets[condition.name] = self.read(Target, given, at, {"response": response})
+                elif given is not None:
+                    targets[condition.name] = Target(response=response,
+                                                     mean=self.value(float, spec.targets, condition.name,
+                                                                     where + ("targets",)))
+                elif condition.sample is not None:
+                    angle = resolve_targets(condition.sample, self.path.parent,
+                                            confine=not self.allow_outside).get(response)
+                    if angle is not None:
+                        sd = angle.sd_deg if math.isfinite(angle.sd_deg) else None
+                        targets[condition.name] = Target(response=response, mean=angle.mean_deg, sd=sd)
+                if condition.name not in targets:
+                    raise self.error(where, f"hold-out test '{spec.test}' has no lab value for condition "
+                                            f"'{condition.name}': give [holdout.targets] \"{condition.name}\" = "
+                                            f"{{ mean = ..., sd = ... }}, or a sample whose record gives {response}")
+            unknown = sorted(set(spec.targets) - {c.name for c in conditions})
+            if unknown:
+                raise self.error(where + ("targets", unknown[0]), f"hold-out target for '{unknown[0]}', which is no "
+                                                                  "condition of the campaign")
+            out.append(Holdout(test=spec.test, response=response, profile=spec.profile,
+                               replicates=spec.replicates, settings=dict(spec.settings), targets=targets))
+        return tuple(out)
 
     def check_runnable(self, experiment, profile, settings, conditions) -> None:
         """The test's own check (sizes, geometry) of the fixed settings, per condition,

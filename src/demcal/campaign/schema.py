@@ -243,6 +243,32 @@ class ConditionTable:
 
 
 @dataclass(frozen=True, kw_only=True)
+class HoldoutTable:
+    """``[[holdout]]``: a test the calibration does not fit, run at each condition's
+    calibrated values and compared with its lab value."""
+
+    test: str = key(doc="the virtual test to predict (`demcal bench --list`)")
+    response: str | None = key(None, doc="its response to compare; default the test's first")
+    profile: str | None = key(None, doc="the profile it runs at; default the calibration's production profile")
+    replicates: int | None = key(None, minimum=1, doc="runs at each condition's values; default [verification] "
+                                                      "replicates")
+    settings: Table = key({}, doc="the test's own settings; the material's come from the calibration")
+    targets: Table = key({}, doc="condition = {mean, sd}: the lab value; default the condition's sample's")
+
+
+@dataclass(frozen=True)
+class Holdout:
+    """A test predicted with the calibrated values (``[[holdout]]``), resolved."""
+
+    test: str
+    response: str
+    profile: str | None
+    replicates: int | None
+    settings: Mapping[str, Any]
+    targets: Mapping[str, Target]  #: condition name -> its lab value
+
+
+@dataclass(frozen=True, kw_only=True)
 class VerificationTable:
     """``[verification]``: the runs at each solved point."""
 
@@ -336,6 +362,7 @@ class CampaignFile:
     runs: RunsTable = key(None, doc="seeds and replicates")
     model: ModelTable = key(None, doc="the model")
     conditions: tuple[ConditionTable, ...] = key(doc="the material states and their lab targets")
+    holdout: tuple[HoldoutTable, ...] = key((), doc="tests predicted, not fitted")
     verification: VerificationTable = key(None, doc="the verification runs")
     calibration: CalibrationConfig = key(None, doc="the closed calibration loop")
     budget: BudgetTable = key(None, doc="the calibration's budget")

@@ -13,3 +13,6 @@ BOX_SEED = 50_000
 #: Seeds of ``demcal identify``'s screening runs: ``seed + SCREEN_SEED + replicate * points
 #: + point`` (:mod:`demcal.campaign.identify`), far above the loop's.
 SCREEN_SEED = 900_000
+#: Seeds of the hold-out runs (``[[holdout]]``): ``[verification] seed + HOLDOUT_SEED +
+#: 1000 * condition + 100 * hold-out + replicate`` (:mod:`demcal.campaign.calibrate`).
+HOLDOUT_SEED = 500_000

@@ -97,6 +97,28 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
 # --------------------------------------------------------------------------- the answer first
 
 
+def _holdout_table(report: HtmlReport, c, cal: Calibration, n) -> None:
+    """The tests the calibration did not fit, run at each condition's calibrated values
+    against their lab values (``[[holdout]]``)."""
+    rows = []
+    for result in cal.conditions:
+        for h in result.holdouts:
+            lo, hi = h.interval
+            rows.append({"condition": result.condition.name, "test": h.test, "response": h.response,
+                         "profile": h.profile, "lab mean ± sd": f"{h.target:g} ± {h.lab_sd:g}" if h.lab_sd else
+                         f"{h.target:g}", "runs": f"{len(h.simulated)} of {h.runs}",
+                         "simulated mean": f"{h.mean:.2f}" if h.simulated else "-",
+                         "95 % interval": f"{lo:.2f} to {hi:.2f}" if np.isfinite(lo) else "-", "verdict": h.verdict})
+    if not rows:
+        return
+    report.section("Hold-out tests", 3)
+    report.paragraph("Tests the calibration did not fit, run at each condition's calibrated values: a check "
+                     "that the parameters carry over to another bench. The rule is the verification's: the "
+                     "simulated mean inside the lab mean ± sd agrees.")
+    report.table(pd.DataFrame(rows).set_index("condition"), n("holdout"),
+                 caption="Hold-out tests at the calibrated values against their lab values")
+
+
 def _ranges_by_test(report: HtmlReport, c, cal: Calibration, n) -> None:
     """A joint test's compatible ranges (the box's region where every target's model
     predicts inside its lab mean ± sd) of each test alone beside those of all together:
@@ -479,6 +501,7 @@ def _calibration_sections(report: HtmlReport, cal: Calibration, n) -> None:
                          + (f", and the {ref} values" if ref in params.columns else "") + _cite(c, "calibrated"),
                  values={"factor": {f.name: f.label for f in c.factors}})
     _ranges_by_test(report, c, cal, n)
+    _holdout_table(report, c, cal, n)
     pred = []
     for result in cal.conditions:
         outside = _outside_box(c, result.condition.reference)
