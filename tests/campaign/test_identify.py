@@ -178,3 +178,20 @@ def test_a_bench_without_seed_noise_is_one_sentence(tmp_path, capsys, monkeypatc
                                              '[[factors]]', 1))
     assert main(["identify", str(path), "--quiet"]) == 2
     assert "no seed noise" in _sentence(capsys)
+
+
+def test_the_calibration_report_carries_the_screen(tmp_path):
+    """Once identify.json is in the campaign's folder, the report says what the screen
+    found: c not pinned, a and b not separately identifiable."""
+    from demcal.campaign.calibrate import calibrate
+    from demcal.campaign.runner import run_campaign
+    from demcal.report.campaign_report import write_report
+
+    path = write(tmp_path)
+    run(path)
+    campaign = load_campaign(path)
+    run_campaign(campaign, executor=InlineExecutor(), progress=False)
+    cal = calibrate(campaign, executor=InlineExecutor(), progress=False)
+    page = write_report(campaign, tmp_path / "report", calibrations=[cal]).read_text()
+    assert "Identifiability before the design" in page
+    assert "not pinned by any response: Parameter c" in page and "not separately identifiable: a and b" in page

@@ -97,6 +97,41 @@ def write_report(campaigns: Campaign | Sequence[Campaign], out: str | Path | Non
 # --------------------------------------------------------------------------- the answer first
 
 
+def _identify_section(report: HtmlReport, c, n) -> None:
+    """What ``demcal identify`` found before the design, where its identify.json is in the
+    campaign's folder: each factor's effect on each response in seed-noise units, and
+    which parameters the responses cannot pin (docs/identify.md)."""
+    import json
+
+    from demcal.campaign.identify import RESULT_FILE
+
+    path = c.workdir / RESULT_FILE
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return
+    if "effects" not in data:
+        return
+    report.section("Identifiability before the design", 3)
+    labels = {f["name"]: f["label"] for f in data.get("factors", [])}
+    rows = [{"factor": e["factor"], "response": e["response"], "effect": e["effect"], "se": e["se"], "t": e["t"],
+             "beyond the seed noise": "yes" if e["beyond_noise"] else "no"} for e in data["effects"]]
+    design = data.get("design", {})
+    unpinned = [u["factor"] for u in data.get("unpinned", [])]
+    tied = [" and ".join(g["factors"]) for g in data.get("not_separately_identifiable", [])]
+    report.paragraph(
+        f"`demcal identify` screened the factors at the {data.get('profile')} profile ({design.get('kind')}, "
+        f"{design.get('points')} points x {design.get('replicates')} seeds): "
+        + ("every factor is pinned by the responses." if data.get("identifiable") else
+           "; ".join(([f"not pinned by any response: {', '.join(labels.get(u, u) for u in unpinned)}"] if unpinned
+                      else []) + ([f"not separately identifiable: {', '.join(tied)}"] if tied else [])) + ".")
+        + " The effects below are half the high-minus-low difference with their standard error from the "
+          "seed noise (docs/identify.md).")
+    report.table(pd.DataFrame(rows).set_index("factor"), n("identify_effects"),
+                 caption="Screening effects of the factors on the responses (demcal identify)",
+                 values={"factor": labels})
+
+
 def _holdout_table(report: HtmlReport, c, cal: Calibration, n) -> None:
     """The tests the calibration did not fit, run at each condition's calibrated values
     against their lab values (``[[holdout]]``)."""
@@ -340,6 +375,7 @@ def _campaign_sections(report: HtmlReport, cal: Calibration, prefix: str) -> Non
           "-1": f.low, "0": f.centre, "+1": f.high} for f in c.factors]).set_index("factor")
     report.table(_drop_empty(levels), n("factors"), caption="Factors and levels" + _cite(c, "factors"))
     _settings_section(report, cal, n)
+    _identify_section(report, c, n)
 
     several = len(cal.designs) > 1
     for design in cal.designs:
