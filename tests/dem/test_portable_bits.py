@@ -8,7 +8,7 @@ Three guards:
 * two tiny bench configurations give the responses stored below to the last bit;
 * a small pour compiled for two targets (``NUMBA_CPU_NAME=generic`` and the host's own),
   each in its own process with its own empty ``NUMBA_CACHE_DIR``, ends in the same state
-  to the bit.
+  to the bit (two compiles of the engine: ``make test-slow``).
 """
 
 import importlib
@@ -119,10 +119,13 @@ def _pour(target, cache: Path) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
 
 
+@pytest.mark.slow
 def test_two_compile_targets_give_the_same_bits(tmp_path):
     """``generic`` is baseline x86-64 (SSE2, no FMA: numba passes no CPU features with
     it); the host's own target has its features (AVX2 and FMA on the 2-core AMD EPYC).
-    Each process compiles the engine (about 50 s each there, the two side by side). The
+    Each process compiles the engine (about 50 s each there, the two side by side; 258 s
+    with other jobs on the cores), so this runs in make test-slow; the fast suite keeps
+    the two guards of its cause (no fast-math licence, no SVML) and the stored bits. The
     engine of f279479, with its fast-math licences, gives two different states here."""
     runs = [_pour(target, tmp_path / str(target)) for target in ("generic", None)]
     hashes = []
