@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -22,6 +23,12 @@ from demcal.errors import ConfigError
 
 import loop_testbench
 from loop_testbench import BIAS, true_angle
+
+#: A parametrised case beyond the first, whose branch the fast suite walks elsewhere
+#: (test_loop_states.py takes every transition of the loop in memory; the case kept here
+#: reads the same code): each calibration is 15-50 s on the 2-core VM, most of it the
+#: optimiser's calls of the discrepancy's Gaussian process, so `make test-slow` runs them.
+SLOW = pytest.mark.slow
 
 CAMPAIGN = """\
 [campaign]
@@ -118,6 +125,20 @@ def looped(tmp_path_factory):
     campaign = parse_campaign(path.read_text(), path)
     assert run_campaign(campaign, workers=1, progress=False).done == 15
     return campaign, calibrate(campaign, workers=1, progress=False)
+
+
+@pytest.fixture(scope="module")
+def crossed(tmp_path_factory):
+    """``calibrated(outside=40.5)``: box 0's path crosses the second target (two tests
+    read it; one replays a copy of its store)."""
+    return calibrated(tmp_path_factory.mktemp("crossed"), outside=40.5)
+
+
+def copied(campaign, folder: Path):
+    """``campaign``'s file and store copied into ``folder``, read from there."""
+    shutil.copytree(campaign.path.parent, folder)
+    path = folder / campaign.path.name
+    return parse_campaign(path.read_text(), path)
 
 
 def test_inside_target_verified_after_the_bias_is_learnt(looped):
@@ -261,7 +282,7 @@ def test_budget_stops_plainly(tmp_path):
         assert len(store.records()) <= 20
 
 
-@pytest.mark.parametrize("least, first", [(1, 1), (2, 2)])
+@pytest.mark.parametrize("least, first", [(1, 1), pytest.param(2, 2, marks=SLOW)])
 def test_a_new_points_first_batch_is_what_the_pooled_noise_asks_for(tmp_path, least, first):
     """Once the first condition's last point has two runs (noise 0.3 deg, df 1), the
     second condition's first point needs one run against a lab sd of 5 deg (t(1) x 0.3 =
@@ -324,7 +345,7 @@ def test_a_stored_study_of_the_production_noise_sizes_the_first_point(tmp_path, 
     assert abs(production[-1].simulated - 33.0) <= 1.5
 
 
-@pytest.mark.parametrize("measured, said", [((0.30, 0.32), True), ((0.0, 2.0), False)])
+@pytest.mark.parametrize("measured, said", [((0.30, 0.32), True), pytest.param((0.0, 2.0), False, marks=SLOW)])
 def test_a_stored_bias_used_beyond_its_points_is_said(tmp_path, monkeypatch, measured, said):
     """The first production point leans on a stored bias (here a stand-in, measured over
     static friction `measured`); a point outside that range gets a note in the result."""
@@ -388,11 +409,11 @@ def test_the_path_looks_for_the_production_response_not_the_cheap_one(tmp_path):
     assert second.loop.on_path is None
 
 
-def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_path):
+def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(crossed, tmp_path):
     """The same target with verify_on_path (the default): the production runs go to the
     crossing, read off the path between steps 2 and 3, and meet the target there, so no
     box is laid (15 design runs saved); the result says it has no solution set."""
-    campaign, cal = calibrated(tmp_path, outside=40.5)
+    campaign, cal = crossed
     second = cal.conditions[1]
     assert second.loop.status == "verified", second.loop.reason
     assert [b.index for b in second.loop.boxes] == [0]
@@ -420,7 +441,7 @@ def test_a_target_the_path_crosses_is_verified_there_without_a_new_design(tmp_pa
     assert "Solving for inside" in html and "Solving for outside" not in html
 
 
-@pytest.mark.parametrize("rule", [True, False])
+@pytest.mark.parametrize("rule", [True, pytest.param(False, marks=SLOW)])
 def test_a_path_that_reads_inside_the_window_without_crossing_is_verified_at_its_nearest_step(tmp_path,
                                                                                                 monkeypatch, rule):
     """The response peaks in mu (curvature 40) just below the lab mean 38.7 ± 1.5: the
@@ -515,15 +536,16 @@ def test_the_stored_noise_leaves_out_the_points_the_campaign_ran_and_can_be_swit
     assert parse_campaign(text, path).calibration.stored_noise is False
 
 
-def test_a_stop_while_a_point_on_the_path_waits_names_that_point_and_no_runs(tmp_path):
+def test_a_stop_while_a_point_on_the_path_waits_names_that_point_and_no_runs(crossed, tmp_path):
     """The path point's production runs are not in the store (a calibration killed
     while they ran, replayed by `demcal report`): the condition stops unfinished at that
     point, with none of an earlier point's runs, and the report does not call it
     verified."""
     import sqlite3
 
-    campaign, cal = calibrated(tmp_path, outside=40.5)
+    campaign, cal = crossed
     point = cal.conditions[1].chosen
+    campaign = copied(campaign, tmp_path / "copy")  # the shared store stays whole
     with sqlite3.connect(campaign.store_path) as db:
         db.execute("DELETE FROM runs WHERE kind = 'verification' AND label LIKE 'verify outside%'")
     replay = calibrate(campaign, simulate=False, progress=False)
@@ -596,6 +618,15 @@ def _files(folder: Path) -> dict[str, bytes]:
     return {str(f.relative_to(folder)): f.read_bytes() for f in sorted(folder.rglob("*")) if f.is_file()}
 
 
+@pytest.fixture(scope="module")
+def designed(tmp_path_factory):
+    """``write``'s campaign with its design runs done (no calibration yet)."""
+    path = write(tmp_path_factory.mktemp("designed"))
+    campaign = parse_campaign(path.read_text(), path)
+    assert run_campaign(campaign, workers=1, progress=False).done == 15
+    return campaign
+
+
 @pytest.mark.parametrize("edit, args, message", [
     (('production = "quick"', 'production = "huge"'), [], "'production' = 'huge' is not known; choose one of: tiny, quick"),
     (None, ["--production", "huge"], "unknown profile 'huge' for test-fidelity; choose one of: tiny, quick."),
@@ -603,13 +634,12 @@ def _files(folder: Path) -> dict[str, bytes]:
     (("box_moves = 4", "box_moves = 4\n[budget]\ncpu_hours = 0"), [], "'cpu_hours' must be positive, got 0"),
     (("high = 0.5\n", "high = 0.5\nhard_high = 0.45\n"), [], "hard limits must contain low and high."),
 ])
-def test_bad_loop_input_exits_2_and_keeps_the_store(tmp_path, edit, args, message):
+def test_bad_loop_input_exits_2_and_keeps_the_store(designed, tmp_path, edit, args, message):
     """Issue 17's bad inputs, through the command a user types: one sentence on stderr,
     exit status 2, no traceback, and the store of the campaign's finished runs byte for
     byte as it was."""
-    path = write(tmp_path)
-    campaign = parse_campaign(path.read_text(), path)
-    run_campaign(campaign, workers=1, progress=False)
+    campaign = copied(designed, tmp_path / "copy")  # each case edits its own copy
+    path = campaign.path
     store = Path(campaign.store_path)
     folder = store if store.is_dir() else store.parent
     before = _files(folder)
@@ -706,7 +736,7 @@ def test_the_limits_stop_the_path_but_the_box_reaches_the_window_so_it_is_solved
 
 
 @pytest.mark.parametrize("mean, slope, outcome", [(40.5, 0.0, "verified"), (41.5, -5.0, "missed"),
-                                                   (45.0, 0.0, "not measured")])
+                                                   pytest.param(45.0, 0.0, "not measured", marks=SLOW)])
 def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_noise(tmp_path, mean, slope,
                                                                                     outcome):
     """Five path points: the path from box 0 ends at the hard limits' corner (true angle
@@ -758,7 +788,7 @@ def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_n
     assert "the nearest the test reaches: the end of the path from box 0" in html
 
 
-@pytest.mark.parametrize("outside, verified", [(36.5, True), (40.0, False)])
+@pytest.mark.parametrize("outside, verified", [(36.5, True), pytest.param(40.0, False, marks=SLOW)])
 def test_a_path_that_falls_from_the_box_edge_lays_no_box(tmp_path, outside, verified):
     """The response peaks in mu at the box's edge (curvature 125: at mu 0.5), so no step
     of the path from box 0 reads higher than the box reaches itself. The classic method
