@@ -16,6 +16,10 @@ studies' READMEs are written from these files by ``--summary``::
 
     python benchmarks/bench_study.py PLAN.json RESULTS.jsonl --summary
 
+``--out DIR`` keeps each run's pictures and files (``demcal bench --out``) in
+``DIR/<case>-seed<N>`` (the case's name with its spaces and slashes as dashes), e.g. the drum's
+``drum.json`` with every frame's angle.
+
 ``--jobs N`` runs N of them at once (for a machine with more cores than the 2-core
 reference machine); a case may name its own ``"threads"`` (numba threads of that run),
 and ``--separate-caches DIR`` gives each concurrent slot its own numba cache under DIR, so
@@ -33,7 +37,7 @@ import time
 from pathlib import Path
 
 RESPONSE = {"repose-funnel": "repose_angle_deg", "repose-cylinder": "repose_angle_deg",
-            "incline": "sliding_angle_deg", "impact": "restitution"}
+            "incline": "sliding_angle_deg", "impact": "restitution", "drum": "dynamic_angle_deg"}
 
 
 def _done(results: Path) -> dict[tuple[str, int], dict]:
@@ -51,7 +55,8 @@ def _order(plan: list[dict]) -> list[tuple[dict, int]]:
     return [(c, c["seeds"][i]) for i in range(depth) for c in plan if i < len(c["seeds"])]
 
 
-def run_one(case: dict, seed: int, threads: int, cache: Path | None = None) -> dict:
+def run_one(case: dict, seed: int, threads: int, cache: Path | None = None,
+            out: Path | None = None) -> dict:
     threads = int(case.get("threads", threads))
     env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
     if cache is not None:
@@ -60,6 +65,8 @@ def run_one(case: dict, seed: int, threads: int, cache: Path | None = None) -> d
            "--seed", str(seed), "--json"]
     for key, value in case.get("set", {}).items():
         cmd += ["--set", f"{key}={value}"]
+    if out is not None:
+        cmd += ["--out", str(out / f"{'-'.join(case['case'].replace('/', ' ').split())}-seed{seed}")]
     start = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
@@ -76,7 +83,7 @@ def run_one(case: dict, seed: int, threads: int, cache: Path | None = None) -> d
 
 
 def run(plan: list[dict], results: Path, threads: int, jobs: int = 1,
-        separate_caches: Path | None = None) -> None:
+        separate_caches: Path | None = None, out: Path | None = None) -> None:
     from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 
     done = _done(results)
@@ -89,7 +96,7 @@ def run(plan: list[dict], results: Path, threads: int, jobs: int = 1,
                 slot = free.pop(0)
                 case, seed = todo.pop(0)
                 cache = separate_caches / f"slot-{slot}" if separate_caches else None
-                running[pool.submit(run_one, case, seed, threads, cache)] = (case, slot)
+                running[pool.submit(run_one, case, seed, threads, cache, out)] = (case, slot)
             finished, _ = wait(running, return_when=FIRST_COMPLETED)
             for fut in finished:
                 case, slot = running.pop(fut)
@@ -134,13 +141,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--jobs", type=int, default=1, help="runs at once (default 1)")
     ap.add_argument("--separate-caches", type=Path, metavar="DIR",
                     help="one numba cache folder per concurrent slot, under DIR")
+    ap.add_argument("--out", type=Path, metavar="DIR", help="keep each run's files under DIR")
     ap.add_argument("--summary", action="store_true", help="print the results as a Markdown table")
     args = ap.parse_args(argv)
     plan = json.loads(args.plan.read_text())
     if args.summary:
         print(summary(plan, args.results))
     else:
-        run(plan, args.results, args.threads, args.jobs, args.separate_caches)
+        run(plan, args.results, args.threads, args.jobs, args.separate_caches, args.out)
     return 0
 
 

@@ -10,11 +10,12 @@ fit while the first ones fall; the bed settles
 (rest criterion as the heaps'), then the drum turns at ``drum.rpm`` about its axis (the
 engine's compiled rotating walls: shell and both ends). After ``drum.spin_up_turns``
 turns, ``measure.frames`` frames spread over ``measure.frame_turns`` turns are measured
-(:func:`demcal.measure.drum.surface_angle`: the bed's top outline seen along the axis, a
-line fitted to its central part between ``measure.band_low`` and ``measure.band_high``
-of its width). The response ``dynamic_angle_deg`` is the frames' mean, its spread their
-standard deviation; ``froude_number`` (omega^2 R / g) and ``regime_index`` (0 slumping,
-1 rolling, 2 cascading, 3 cataracting: :data:`demcal.measure.drum.REGIMES`) go with it.
+(:func:`demcal.measure.drum.surface_angle`: the bed's outline seen along the axis, read
+along the bed's own normal, a line fitted to its central part between
+``measure.band_low`` and ``measure.band_high`` of its length). The response
+``dynamic_angle_deg`` is the frames' mean, its spread their standard deviation;
+``froude_number`` (omega^2 R / g) and ``regime_index`` (0 slumping, 1 rolling, 2
+cascading, 3 cataracting: :data:`demcal.measure.drum.REGIMES`) go with it.
 A picture of the last frame with its fitted line is written to ``out_dir/drum.png``,
 the frames' angles to ``drum.json``.
 
@@ -28,7 +29,11 @@ long at size factor 1, 0.5-1.5x: the paper scales its platform 4x for them): ``t
 ``paper`` 600 mm x 160 mm (about 7,800), all at 30 % fill and 5 rpm (rolling: Fr
 0.003-0.008); the drum is 8-23 of the largest particles across (a laboratory drum is
 30 or more grain sizes across: these drums measure the paper's scaled particles as its
-scaled platform does).
+scaled platform does). The tiny bed is four or five particles deep: its surface swings
+by 6-8 deg (sd) from frame to frame as it avalanches, so tiny reads 24 frames over half a
+turn (their mean within 1.2-1.7 deg of the run's time average; six frames left 2.5-3.4);
+a drum 100 mm wide read 2 deg lower for 1.7 times the particles and the time
+(benchmarks/studies/drum-physics-2026-11-29).
 """
 
 from __future__ import annotations
@@ -65,13 +70,13 @@ class Drum(BenchExperiment):
             Setting("drum.rpm", 5.0, "1/min", "drum speed", 0.01, 1000.0),
             Setting("drum.spin_up_turns", P(profile, 0.25, 0.5, 1.0), "-",
                     "turns before the first frame (the bed reaches its steady flow)", 0.0, 100.0),
-            Setting("measure.frames", P(profile, 6, 10, 20), "-", "frames measured", 1, 1000),
-            Setting("measure.frame_turns", P(profile, 0.25, 0.5, 1.0), "-",
+            Setting("measure.frames", P(profile, 24, 10, 20), "-", "frames measured", 1, 1000),
+            Setting("measure.frame_turns", P(profile, 0.5, 0.5, 1.0), "-",
                     "turns the frames are spread over", 0.0, 100.0),
             Setting("measure.band_low", 0.25, "-", "lower end of the surface fit, fraction of the outline's "
-                    "width", 0.0, 0.9),
+                    "length", 0.0, 0.9),
             Setting("measure.band_high", 0.75, "-", "upper end of the surface fit, fraction of the outline's "
-                    "width", 0.1, 1.0),
+                    "length", 0.1, 1.0),
         ]
         particles = [p for p in C.particle_settings(profile, 1) if p.key != "particles.count"]
         return (C.material_settings() + particles + own
