@@ -22,6 +22,7 @@ from demcal.campaign.store import Store
 from demcal.errors import ConfigError
 
 import loop_testbench
+from conftest import InlineExecutor
 from loop_testbench import BIAS, true_angle
 
 #: A parametrised case beyond the first, whose branch the fast suite walks elsewhere
@@ -104,12 +105,20 @@ def write(folder: Path, outside: float = 45.0, hard: bool | str = False, budget:
     return path
 
 
+def inline() -> InlineExecutor:
+    """The runs executed in this process, one at a time, by the test double of an
+    executor: each run is a pure function of its spec and seed, so the results are a
+    worker's, without a pool to start and poll at every step of the loop (a test twice
+    as fast). ``looped`` and the SIGKILL test run theirs in worker processes."""
+    return InlineExecutor(workers=1)
+
+
 def calibrated(folder: Path, **kw):
     """``write``'s campaign run and calibrated: ``(campaign, calibration)``."""
     path = write(folder, **kw)
     campaign = parse_campaign(path.read_text(), path)
-    run_campaign(campaign, workers=1, progress=False)
-    return campaign, calibrate(campaign, workers=1, progress=False)
+    run_campaign(campaign, progress=False, executor=inline())
+    return campaign, calibrate(campaign, progress=False, executor=inline())
 
 
 @pytest.fixture(autouse=True)
@@ -213,8 +222,8 @@ def test_production_replicates_come_in_batches_of_replicate_batch(tmp_path):
     path = tmp_path / "loop.toml"
     path.write_text(text)
     campaign = parse_campaign(text, path)
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    run_campaign(campaign, progress=False, executor=inline())
+    cal = calibrate(campaign, progress=False, executor=inline())
     assert campaign.calibration.replicate_batch == 2
     assert [c.loop.status for c in cal.conditions] == ["verified", "verified"], [c.loop.reason for c in cal.conditions]
     steps = [s for c in cal.conditions for s in c.loop.history if s.stage == "production"]
@@ -233,8 +242,8 @@ def test_production_replicates_come_in_batches_of_replicate_batch(tmp_path):
     tight.mkdir()
     limited = text.replace("[executor]\n", f"[budget]\nruns = {len(records) - 1}\n\n[executor]\n")
     campaign = parse_campaign(limited, tight / "loop.toml")
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    run_campaign(campaign, progress=False, executor=inline())
+    cal = calibrate(campaign, progress=False, executor=inline())
     assert [c.loop.status for c in cal.conditions] == ["verified", "verified"], [c.loop.reason for c in cal.conditions]
     last = [s for s in cal.conditions[1].loop.history if s.stage == "production"][-1]
     assert last.runs == 1 and last.text.startswith("quick x1")
@@ -298,8 +307,8 @@ def test_a_new_points_first_batch_is_what_the_pooled_noise_asks_for(tmp_path, le
     path = tmp_path / "loop.toml"
     path.write_text(text)
     campaign = parse_campaign(text, path)
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    run_campaign(campaign, progress=False, executor=inline())
+    cal = calibrate(campaign, progress=False, executor=inline())
     one, two = cal.conditions
     assert [c.loop.status for c in cal.conditions] == ["verified", "verified"], [c.loop.reason for c in cal.conditions]
     # the first condition: a probe, then [verification] replicates = 2 at an unknown noise
@@ -381,8 +390,8 @@ def test_no_move_left_but_the_window_in_reach_is_solved_at_the_edge(tmp_path):
     path = tmp_path / "loop.toml"
     path.write_text(text)
     campaign = parse_campaign(text, path)
-    run_campaign(campaign, workers=1, progress=False)
-    second = calibrate(campaign, workers=1, progress=False).conditions[1]
+    run_campaign(campaign, progress=False, executor=inline())
+    second = calibrate(campaign, progress=False, executor=inline()).conditions[1]
     assert any("box moves allowed are spent" in n and "solved at the box's edge" in n for n in second.notes)
     assert second.loop.status in ("verified", "out of reach"), second.loop.reason
     assert [s.stage for s in second.loop.history if s.stage == "production"]
@@ -626,7 +635,7 @@ def designed(tmp_path_factory):
     """``write``'s campaign with its design runs done (no calibration yet)."""
     path = write(tmp_path_factory.mktemp("designed"))
     campaign = parse_campaign(path.read_text(), path)
-    assert run_campaign(campaign, workers=1, progress=False).done == 15
+    assert run_campaign(campaign, progress=False, executor=inline()).done == 15
     return campaign
 
 
@@ -756,8 +765,8 @@ def test_the_paths_end_at_the_limits_is_measured_when_the_window_is_within_its_n
     assert text != path.read_text()
     path.write_text(text)
     campaign = parse_campaign(text, path)
-    run_campaign(campaign, workers=1, progress=False)
-    cal = calibrate(campaign, workers=1, progress=False)
+    run_campaign(campaign, progress=False, executor=inline())
+    cal = calibrate(campaign, progress=False, executor=inline())
     second = cal.conditions[1]
     production = [s for s in second.loop.history if s.stage == "production"]
     if outcome == "not measured":
