@@ -147,6 +147,15 @@ def test_a_test_named_twice_is_a_second_part_with_its_own_responses():
     assert twice.part_of("spin_deg_2") == "test-spin#2"
 
 
+def test_building_a_joint_test_leaves_the_list_of_registered_tests_alone():
+    from demcal.bench.registry import names
+
+    before = names()
+    get_experiment("test-slope+test-spin")
+    assert names() == before and not any("+" in n for n in before)
+    assert get_experiment("test-slope+test-spin") is get_experiment("test-slope+test-spin")
+
+
 @pytest.mark.parametrize("name, words", [
     ("test-slope+", "has an empty part"),
     ("test-slope+test-magic", "unknown virtual test 'test-magic'"),

@@ -113,6 +113,9 @@ def names() -> list[str]:
 #: Functions that build a test from a name no module registered, each returning None for
 #: a name that is not theirs (:mod:`demcal.bench.joint` builds ``+``-joined names).
 _BUILDERS: list = []
+#: Tests a builder made, kept apart from the registered ones so that :func:`names` lists
+#: the same tests whatever joint names this process has asked for.
+_BUILT: dict[str, Experiment] = {}
 
 
 def register_builder(build) -> None:
@@ -125,14 +128,16 @@ def get_experiment(name: str) -> Experiment:
     """The registered test ``name``, or the one a builder makes of it (the joint test of
     registered tests joined by ``+``: :mod:`demcal.bench.joint`)."""
     _load_builtin()
-    if name not in _REGISTRY:
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    if name not in _BUILT:
         for build in _BUILDERS:
             made = build(name)
             if made is not None:
-                _REGISTRY[name] = made
+                _BUILT[name] = made
                 break
     try:
-        return _REGISTRY[name]
+        return _BUILT[name]
     except KeyError:
         known = ", ".join(sorted(_REGISTRY)) or "none"
         raise ConfigError(f"unknown virtual test '{name}'; choose one of: {known}.") from None
