@@ -62,8 +62,18 @@ def test_help_shows_the_papers_defaults(capsys):
 def test_list(capsys):
     assert main(["bench", "--list"]) == 0
     out = capsys.readouterr().out
-    for name in ("repose-funnel", "repose-cylinder", "incline", "impact"):
+    for name in ("repose-funnel", "repose-cylinder", "incline", "impact", "drum"):
         assert name in out
+
+
+def test_the_help_names_every_test_of_demcals_own(capsys):
+    from demcal.bench.registry import names
+    from demcal.cli.bench import _TESTS
+
+    own = [n for n in names() if type(get_experiment(n)).__module__.startswith("demcal.")]
+    assert sorted(_TESTS) == sorted(own)
+    assert main(["bench", "--help"]) == 0
+    assert "drum" in capsys.readouterr().out
 
 
 def test_json_output(capsys):

@@ -24,7 +24,9 @@ import sys
 from demcal.cli._util import add_command, add_json
 from demcal.errors import ConfigError
 
-_TESTS = ("repose-funnel", "repose-cylinder", "incline", "impact")
+#: demcal's own tests, for the help text without importing the benches
+#: (tests/bench/test_bench_cli.py checks it against the registry).
+_TESTS = ("repose-funnel", "repose-cylinder", "incline", "impact", "drum")
 
 
 def register(subparsers) -> None:
@@ -36,7 +38,8 @@ def register(subparsers) -> None:
         add_help=False,
     )
     parser.add_argument("name", nargs="?", metavar="NAME",
-                        help=f"the test: {', '.join(_TESTS)}")
+                        help=f"the test: {', '.join(_TESTS)}, a plug-in's, or several joined by + "
+                             "(a joint test: repose-funnel+drum)")
     parser.add_argument("--profile", default="quick",
                         help="tiny (seconds), quick (default; 10-40 s), paper (the paper's scale), or a test's "
                              "own: the incline's medium (about 25 s; within 1 deg of paper)")
