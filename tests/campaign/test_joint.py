@@ -178,6 +178,31 @@ def test_the_report_shows_each_test_alone_and_all_together(calibrations, tmp_pat
     assert list(table.columns[2:]) == ["test-slope alone", "test-spin alone", "all together",
                                        "together / narrowest alone"]
     assert len(table) == 2
+    assert len(list((tmp_path / "report").rglob("*_tests.png"))) == 1
+
+
+def test_the_tests_figure_shades_each_test_and_the_smaller_region_of_both(calibrations):
+    import re
+
+    import numpy as np
+
+    from demcal.report.diagnostics import _parts, _solution, _windows, solved_models, tests_figure
+
+    campaign, cal = calibrations["test-slope+test-spin"]
+    result = cal.conditions[0]
+    models = solved_models(cal, result)
+    windows = _windows(result, result.optimization)
+    parts = _parts(campaign.test, windows)
+    assert parts == {"slope_deg": "test-slope", "spin_deg": "test-spin"}
+    point, _ = _solution(result.optimization)
+    fig = tests_figure(models, result.optimization, windows, parts, 0, 1, point, TRUTH)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    shares = {label.split(":")[0]: float(re.search(r"(\d+) %", label).group(1)) for label in labels if "%" in label}
+    assert set(shares) == {"test-slope alone", "test-spin alone", "all together"}
+    assert 0 < shares["all together"] < min(shares["test-slope alone"], shares["test-spin alone"])
+    assert "reference values" in labels
+    cross = [c for c in fig.axes[0].collections if c.get_offsets().shape == (1, 2)][-1]
+    assert np.allclose(cross.get_offsets()[0], [TRUTH["particle.static_friction"], TRUTH["particle.rolling_friction"]])
 
 
 def test_the_card_carries_the_ranges_the_lab_window_allows(calibrations):

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 from matplotlib.ticker import MaxNLocator
 
 from demcal.errors import DataError
@@ -27,7 +28,7 @@ from demcal.rsm.diagnostics import (
 __all__ = [
     "normal_plot_figure", "residuals_vs_predicted_figure", "residuals_vs_run_figure",
     "cooks_distance_figure", "box_cox_figure", "interaction_figure", "ramps_figure", "overlay_figure",
-    "overlay_grid", "important_factors", "solved_models",
+    "overlay_grid", "tests_figure", "important_factors", "solved_models",
     "add_residual_sections", "add_interaction_sections", "add_desirability_sections",
 ]
 
@@ -264,6 +265,15 @@ def add_interaction_sections(report, model, name: str, of: str, label: str | Non
 # --------------------------------------------------------------------------- desirability
 
 
+def _parts(test: str, windows: dict) -> dict:
+    """``{response: test}`` of a joint test's responses (the one test's name otherwise)."""
+    from demcal.bench.registry import get_experiment
+
+    experiment = get_experiment(test)
+    part_of = getattr(experiment, "part_of", None)
+    return {r: (part_of(r) if part_of else test) for r in windows}
+
+
 def solved_models(cal, result) -> dict:
     """``{response: surface}`` the condition's search solved: the final box's model
     plus the production discrepancy (as :mod:`demcal.campaign.loop` builds it), or
@@ -418,6 +428,54 @@ def overlay_figure(models: dict, optimization, windows: dict, i: int, j: int, po
     return fig
 
 
+def tests_figure(models: dict, optimization, windows: dict, parts: dict, i: int, j: int, point,
+                 reference: dict | None = None, n: int = 81) -> Figure:
+    """How much each test of a joint campaign pins, over factors ``i`` and ``j`` (others
+    at the coded ``point``): each test's own region (every one of its responses inside its
+    window) outlined and lightly filled in its colour, the region of all together in gold,
+    solution 1 as a red star and ``reference`` (parameter: value, e.g. the values the
+    targets were simulated at) as a black cross where it names both factors. ``parts``
+    maps each response to its test."""
+    factors = list(optimization.factors)
+    grid = overlay_grid(models, windows, point, i, j, n)
+    fi, fj = factors[i], factors[j]
+    xi, xj = fi.to_actual(grid["gi"]), fj.to_actual(grid["gj"])
+    fig, ax = _axes((5.4, 4.6))
+    fig.subplots_adjust(bottom=0.26)
+    colours = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:brown")
+    handles = []
+    for m, test in enumerate(dict.fromkeys(parts[r] for r in windows)):
+        alone = np.ones(grid["gi"].shape, bool)
+        for r, (lo, hi, _) in windows.items():
+            if parts[r] == test:
+                alone &= (grid["z"][r] >= lo) & (grid["z"][r] <= hi)
+        colour = colours[m % len(colours)]
+        if alone.any():
+            ax.contourf(xi, xj, alone.astype(float), levels=[0.5, 1.5], colors=[colour], alpha=0.18, zorder=1)
+            ax.contour(xi, xj, alone.astype(float), levels=[0.5], colors=[colour], linewidths=1.2, zorder=3)
+        handles.append(Patch(facecolor=colour, alpha=0.35, edgecolor=colour,
+                             label=f"{test} alone: {100.0 * alone.mean():.0f} % of the plane"))
+    if grid["feasible"].any():
+        ax.contourf(xi, xj, grid["feasible"].astype(float), levels=[0.5, 1.5], colors=["gold"], zorder=2)
+    handles.append(Patch(facecolor="gold", label=f"all together: {100.0 * grid['feasible'].mean():.0f} % of the plane"))
+    sol, _ = _solution(optimization)
+    ax.scatter([float(fi.to_actual(sol[i]))], [float(fj.to_actual(sol[j]))], marker="*", s=140, color="tab:red",
+               edgecolor="k", linewidth=0.4, zorder=5, clip_on=False)
+    handles.append(Line2D([], [], marker="*", color="tab:red", markeredgecolor="k", linestyle="", label="solution 1"))
+    reference = reference or {}
+    if fi.parameter in reference and fj.parameter in reference:
+        ax.scatter([reference[fi.parameter]], [reference[fj.parameter]], marker="x", s=70, color="k", zorder=6,
+                   clip_on=False)
+        handles.append(Line2D([], [], marker="x", color="k", linestyle="", label="reference values"))
+    _short_ticks(ax)
+    ax.set_xlabel(_factor_label(fi))
+    ax.set_ylabel(_factor_label(fj))
+    ax.legend(handles=handles, fontsize=6, loc="upper left", bbox_to_anchor=(0, -0.13), frameon=False, ncol=2)
+    others = [f"{f.name} = {f.to_actual(point[m]):.3g}" for m, f in enumerate(factors) if m not in (i, j)]
+    ax.set_title("Each test alone and all together" + (f" ({', '.join(others)})" if others else ""), fontsize=9)
+    return fig
+
+
 def add_desirability_sections(report, cal, result, name: str) -> None:
     """Ramps and overlay plot of one solved condition (``cal``: its
     :class:`~demcal.campaign.calibrate.Calibration`, ``result``: the condition's result)."""
@@ -443,3 +501,11 @@ def add_desirability_sections(report, cal, result, name: str) -> None:
                   caption=f"{condition}: overlay plot over {fi.name} and {fj.name} (the two factors that move the "
                           f"responses most against their windows), other factors at solution 1; yellow: every "
                           f"predicted response meets its window ({how}); grey: at least one does not{none}")
+    parts = _parts(cal.campaign.test, windows)
+    if len(set(parts.values())) >= 2:
+        report.figure(tests_figure(models, optimization, windows, parts, i, j, point, result.condition.reference),
+                      f"{name}_tests",
+                      caption=f"{condition}: how much each test pins, over {fi.name} and {fj.name} (other factors at "
+                              "solution 1): each test's own region, where its responses are predicted inside their "
+                              "windows, outlined and lightly filled in its colour; gold where every response is; the "
+                              "black cross marks the condition's reference values where it gives both")
