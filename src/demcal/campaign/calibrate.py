@@ -400,16 +400,25 @@ def _close_loops(campaign: Campaign, designs: list[DesignFit], notes: list[str],
     return results
 
 
+#: Confidence level of the fitted mean that the compatible ranges allow for (the seed
+#: noise the surface averages): a setting is compatible where that interval reaches into
+#: every lab window.
+COMPATIBLE_LEVEL = 0.95
+
+
 def compatible_ranges(boxed: Campaign, models: dict, targets) -> dict[str, tuple[float, float]]:
     """The parameter ranges of the box compatible with every one of ``targets`` within its
-    lab sd: the region where each model predicts inside mean ± sd
-    (:func:`demcal.optimize.overlay.overlay`, Design-Expert's overlay), by parameter key;
-    empty when a target has no sd or no point of the box meets every window."""
+    lab sd and the seed noise: the region where each model's 95 % confidence interval of
+    the mean (:data:`COMPATIBLE_LEVEL`) reaches into mean ± sd
+    (:func:`demcal.optimize.overlay.overlay`, Design-Expert's overlay with its interval),
+    by parameter key; empty when a target has no sd or no point of the box meets every
+    window."""
     from demcal.optimize.overlay import overlay
 
     if not targets or any(t.sd is None or not np.isfinite(t.sd) or t.sd <= 0 for t in targets):
         return {}
-    region = overlay(models, {t.response: (t.mean - t.sd, t.mean + t.sd) for t in targets}, len(boxed.factors))
+    region = overlay(models, {t.response: (t.mean - t.sd, t.mean + t.sd) for t in targets}, len(boxed.factors),
+                     level=COMPATIBLE_LEVEL)
     return {f.parameter: (float(f.to_actual(region.ranges[j][0])), float(f.to_actual(region.ranges[j][1])))
             for j, f in enumerate(boxed.factors) if j in region.ranges}
 

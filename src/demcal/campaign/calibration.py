@@ -167,7 +167,8 @@ class ConditionResult:
     reference_predicted: dict[str, float] = field(default_factory=dict)  #: response -> model at the published values
     loop: Any = None  #: the :class:`demcal.campaign.loop.LoopResult` that found it
     #: parameter key -> (low, high) over the box's region where every target's model
-    #: predicts inside the lab mean ± sd (:func:`demcal.campaign.calibrate.compatible_ranges`)
+    #: predicts inside the lab mean ± sd within its 95 % interval of the mean
+    #: (:func:`demcal.campaign.calibrate.compatible_ranges`)
     compatible: dict[str, tuple[float, float]] = field(default_factory=dict)
     #: a joint test's compatible ranges of each of its tests alone, by test
     compatible_by_test: dict[str, dict[str, tuple[float, float]]] = field(default_factory=dict)

@@ -18,8 +18,9 @@ combination of values inside the ranges meets the targets. calibration.json does
 record how many solutions the search found, so the card gives no count.
 
 Where calibrate wrote ``compatible_ranges`` (:func:`demcal.campaign.calibrate.compatible_ranges`:
-the box's region where every target is predicted inside the lab mean +- sd, Design-Expert's
-overlay), the card gives those instead, the set the lab's spread allows, with
+the box's region where every target is predicted inside the lab mean +- sd within the
+fitted surface's 95 % confidence interval of the mean, Design-Expert's overlay with the seed
+noise), the card gives those instead, the set the lab's spread and the noise allow, with
 :data:`COMPATIBLE_MEANING`; the narrow desirability set above is what older calibrations
 and a region the box does not hold leave.
 
@@ -56,9 +57,10 @@ MEANING = (
 COMPATIBLE_MEANING = (
     "Each range is the extent, along that parameter, of the region of the condition's last design box "
     "where the fitted response surface (corrected to the production profile) predicts every lab target "
-    "inside the lab mean +- sd (Design-Expert's overlay region, sampled with 2^14 scrambled Sobol points; "
-    f"ends rounded outward to {DIGITS} significant digits); not every combination inside the ranges meets "
-    "the targets, and the surface's own prediction uncertainty (the seed noise it averages) is not added."
+    "inside the lab mean +- sd, within the surface's 95 % confidence interval of the mean (the seed noise "
+    "it averages; Design-Expert's overlay region, sampled with 2^14 scrambled Sobol points; ends rounded "
+    f"outward to {DIGITS} significant digits); not every combination inside the ranges meets the targets, "
+    "and the uncertainty of a correction to the production profile is not added."
 )
 
 

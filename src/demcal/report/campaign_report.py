@@ -156,8 +156,8 @@ def _holdout_table(report: HtmlReport, c, cal: Calibration, n) -> None:
 
 def _ranges_by_test(report: HtmlReport, c, cal: Calibration, n) -> None:
     """A joint test's compatible ranges (the box's region where every target's model
-    predicts inside its lab mean ± sd) of each test alone beside those of all together:
-    how much each further test pins down."""
+    predicts inside its lab mean ± sd, within the fit's 95 % interval of the mean) of each
+    test alone beside those of all together: how much each further test pins down."""
     rows = []
     for result in cal.conditions:
         if not result.compatible_by_test:
@@ -178,9 +178,10 @@ def _ranges_by_test(report: HtmlReport, c, cal: Calibration, n) -> None:
     if not rows:
         return
     report.paragraph("Each test of the joint campaign alone and all together: the ranges of the design box "
-                     "where every one of their targets is predicted inside the lab mean ± sd (Design-Expert's "
-                     "overlay region, sampled). A range that shrinks from one test to all is pinned down by the "
-                     "others; one that does not, no test here pins.")
+                     "where every one of their targets is predicted inside the lab mean ± sd, within the fitted "
+                     "surface's 95 % confidence interval of the mean (Design-Expert's overlay region with the "
+                     "seed noise the surface averages, sampled). A range that shrinks from one test to all is "
+                     "pinned down by the others; one that does not, no test here pins.")
     report.table(pd.DataFrame(rows).set_index("condition"), n("compatible_ranges_by_test"),
                  caption="Ranges compatible with the lab targets, each test alone and all together",
                  values={"factor": {f.name: f.label for f in c.factors}})

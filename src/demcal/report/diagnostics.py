@@ -367,19 +367,28 @@ def ramps_figure(optimization, windows: dict | None = None) -> Figure:
     return fig
 
 
-def overlay_grid(models: dict, windows: dict, point, i: int, j: int, n: int = 81) -> dict:
+def overlay_grid(models: dict, windows: dict, point, i: int, j: int, n: int = 81,
+                 level: float | None = None) -> dict:
     """Coded grid over factors ``i`` and ``j`` (others at ``point``): ``{"gi", "gj",
-    "z": {response: predictions}, "feasible": every response inside its window}``."""
+    "z": {response: predictions}, "half": {response: half interval}, "feasible": every
+    response inside its window}``. With ``level``, a response counts as inside where its
+    ``level`` confidence interval of the mean reaches into the window
+    (:func:`demcal.optimize.overlay.interval_half_width`, as the compatible ranges)."""
+    from demcal.optimize.overlay import interval_half_width
+
     g = np.linspace(-1.0, 1.0, n)
     gi, gj = np.meshgrid(g, g, indexing="xy")
     pts = np.tile(np.asarray(point, dtype=float), (gi.size, 1))
     pts[:, i] = gi.ravel()
     pts[:, j] = gj.ravel()
     z = {r: np.asarray(models[r].predict(pts), dtype=float).reshape(gi.shape) for r in windows}
+    half = {r: (np.zeros(gi.shape) if level is None
+                else np.broadcast_to(interval_half_width(models[r], pts, level), (gi.size,)).reshape(gi.shape))
+            for r in windows}
     feasible = np.ones(gi.shape, bool)
     for r, (lo, hi, _) in windows.items():
-        feasible &= (z[r] >= lo) & (z[r] <= hi)
-    return {"gi": gi, "gj": gj, "z": z, "feasible": feasible}
+        feasible &= (z[r] + half[r] >= lo) & (z[r] - half[r] <= hi)
+    return {"gi": gi, "gj": gj, "z": z, "half": half, "feasible": feasible}
 
 
 def overlay_figure(models: dict, optimization, windows: dict, i: int, j: int, point=None, n: int = 81,
@@ -432,12 +441,16 @@ def tests_figure(models: dict, optimization, windows: dict, parts: dict, i: int,
                  reference: dict | None = None, n: int = 81) -> Figure:
     """How much each test of a joint campaign pins, over factors ``i`` and ``j`` (others
     at the coded ``point``): each test's own region (every one of its responses inside its
-    window) outlined and lightly filled in its colour, the region of all together in gold,
+    window, within the fit's 95 % interval of the mean as the compatible ranges:
+    :data:`demcal.campaign.calibrate.COMPATIBLE_LEVEL`) outlined and lightly filled in its
+    colour, the region of all together in gold,
     solution 1 as a red star and ``reference`` (parameter: value, e.g. the values the
     targets were simulated at) as a black cross where it names both factors. ``parts``
     maps each response to its test."""
+    from demcal.campaign.calibrate import COMPATIBLE_LEVEL
+
     factors = list(optimization.factors)
-    grid = overlay_grid(models, windows, point, i, j, n)
+    grid = overlay_grid(models, windows, point, i, j, n, level=COMPATIBLE_LEVEL)
     fi, fj = factors[i], factors[j]
     xi, xj = fi.to_actual(grid["gi"]), fj.to_actual(grid["gj"])
     fig, ax = _axes((5.4, 4.6))
@@ -448,7 +461,7 @@ def tests_figure(models: dict, optimization, windows: dict, parts: dict, i: int,
         alone = np.ones(grid["gi"].shape, bool)
         for r, (lo, hi, _) in windows.items():
             if parts[r] == test:
-                alone &= (grid["z"][r] >= lo) & (grid["z"][r] <= hi)
+                alone &= (grid["z"][r] + grid["half"][r] >= lo) & (grid["z"][r] - grid["half"][r] <= hi)
         colour = colours[m % len(colours)]
         if alone.any():
             ax.contourf(xi, xj, alone.astype(float), levels=[0.5, 1.5], colors=[colour], alpha=0.18, zorder=1)
@@ -507,5 +520,6 @@ def add_desirability_sections(report, cal, result, name: str) -> None:
                       f"{name}_tests",
                       caption=f"{condition}: how much each test pins, over {fi.name} and {fj.name} (other factors at "
                               "solution 1): each test's own region, where its responses are predicted inside their "
-                              "windows, outlined and lightly filled in its colour; gold where every response is; the "
+                              "windows within the fit's 95 % interval of the mean (the compatible ranges' rule), "
+                              "outlined and lightly filled in its colour; gold where every response is; the "
                               "black cross marks the condition's reference values where it gives both")
