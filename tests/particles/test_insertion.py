@@ -114,3 +114,28 @@ def test_random_quaternions_are_uniform():
     w, x, y, z = q.T
     zz = 1 - 2 * (x * x + y * y)
     assert zz.mean() == pytest.approx(0.0, abs=0.01) and (zz**2).mean() == pytest.approx(1 / 3, abs=0.01)
+
+
+HANGS = """
+import numpy as np
+from demcal.particles.insertion import BoxRegion, Inserter
+region = BoxRegion((0, 0, 0), (0.01, 0.01, 0.01))
+full = np.array([[0.005, 0.005, 0.005]]), np.array([0.01])  # one body covering the whole box
+# one particle due, 1,000 tries allowed: more than the smallest batch of 64 draws
+inserter = Inserter(region, total=1, template=0.002, seed=1, max_attempts=1000)
+got = inserter(0.0, *full)
+print(len(got), inserter.inserted, inserter.done)
+"""
+
+
+def test_a_particle_that_never_fits_gives_up_after_max_attempts_across_batches():
+    """With more tries allowed than one batch of random draws holds, a particle with no room
+    fails after ``max_attempts`` tries in all (each new batch used to restart its count, so
+    the call never returned); it waits for the next call. In a subprocess: a regression
+    hangs, and the timeout says so."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", HANGS], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["0", "0", "False"]

@@ -118,8 +118,7 @@ class Drum(BenchExperiment):
         side = 0.7 * radius - b_max
         region = BoxRegion((-side, -0.5 * width + 1.05 * b_max, -side), (side, 0.5 * width - 1.05 * b_max, side))
         # all now, the rest as room frees up: a particle that finds no room in 64 tries waits for
-        # the next look (with more tries than the Inserter's smallest batch of 64 draws, one
-        # that can never fit would be retried forever within one call)
+        # the next look
         inserter = Inserter(region, n, tpl, sizes=sizes, seed=seed, max_attempts=64)
         watch = C.Watch(sim, "drum", 1, out_dir, vtk, walls, "drum")
         omega = 2.0 * math.pi * rpm / 60.0

@@ -215,23 +215,27 @@ def _hash(ix, iy, iz, mask):
 
 
 @njit(cache=True)
-def _place(kind, rp, pos, rad, n_done, n_total, uniforms, u_next, gap, max_attempts, cell, origin, head, nxt, mask):
+def _place(kind, rp, pos, rad, n_done, n_total, uniforms, u_next, gap, max_attempts, cell, origin, head, nxt, mask,
+           tried):
     """Random sequential addition of particles n_done..n_total-1.
 
     ``pos``/``rad`` hold the fixed (existing) particles and those placed so far in
-    their first ``n_done`` rows (already linked into the hash grid ``head``/``nxt``).
-    Returns (n_done, u_next, status): status 0 all placed, 1 a particle failed
-    ``max_attempts`` tries, 2 ran out of uniforms.
+    their first ``n_done`` rows (already linked into the hash grid ``head``/``nxt``);
+    particle ``n_done`` has had ``tried`` tries in an earlier call. Returns (n_done,
+    u_next, status, tries): status 0 all placed, 1 a particle failed ``max_attempts``
+    tries, 2 ran out of uniforms, with ``tries`` those of particle ``n_done`` so far
+    (the next call carries them on, so a particle that never fits fails after
+    ``max_attempts`` tries however many calls they span).
     """
     inv = 1.0 / cell
     i = n_done
     while i < n_total:
         r = rad[i]
         placed = False
-        tries = 0
+        tries = tried if i == n_done else 0
         while tries < max_attempts:
             if u_next >= uniforms.shape[0]:
-                return i, u_next, 2
+                return i, u_next, 2, tries
             u0 = uniforms[u_next, 0]
             u1 = uniforms[u_next, 1]
             u2 = uniforms[u_next, 2]
@@ -280,9 +284,9 @@ def _place(kind, rp, pos, rad, n_done, n_total, uniforms, u_next, gap, max_attem
                 placed = True
                 break
         if not placed:
-            return i, u_next, 1
+            return i, u_next, 1, tries
         i += 1
-    return i, u_next, 0
+    return i, u_next, 0, 0
 
 
 @njit(cache=True)
@@ -342,10 +346,12 @@ def _fill(region, radii_new, rng, existing_positions, existing_radii, gap, max_a
     _link(pos, n_fix, cell, origin, head, nxt, size - 1)
     done = n_fix
     status = 2
+    tries = 0
     batch = max(64, 40 * n_new)
     while status == 2:
         uniforms = rng.random((batch, 3))
-        done, _, status = _place(kind, rp, pos, rad, done, n_total, uniforms, 0, float(gap), int(max_attempts), cell, origin, head, nxt, size - 1)
+        done, _, status, tries = _place(kind, rp, pos, rad, done, n_total, uniforms, 0, float(gap),
+                                        int(max_attempts), cell, origin, head, nxt, size - 1, tries)
     return pos[n_fix:done], done - n_fix, status
 
 
