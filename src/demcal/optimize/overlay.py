@@ -25,7 +25,7 @@ from typing import Mapping
 
 import numpy as np
 
-__all__ = ["Overlay", "interval_half_width", "overlay"]
+__all__ = ["Overlay", "interval_half_width", "overlay", "reaches"]
 
 
 @dataclass(frozen=True)
@@ -59,13 +59,18 @@ def overlay(models: Mapping[str, object], windows: Mapping[str, tuple[float, flo
     for response, (low, high) in windows.items():
         model = models[response]
         y = np.asarray(model.predict(x), dtype=float)
-        half = 0.0 if level is None else interval_half_width(model, x, level)
-        inside &= (y + half >= low) & (y - half <= high)
+        inside &= reaches(y, 0.0 if level is None else interval_half_width(model, x, level), low, high)
     ranges = {}
     if inside.any():
         kept = x[inside]
         ranges = {j: (float(kept[:, j].min()), float(kept[:, j].max())) for j in range(k)}
     return Overlay(ranges, float(inside.mean()), len(x))
+
+
+def reaches(y, half, low: float, high: float) -> np.ndarray:
+    """Where the interval ``y`` ± ``half`` (``half`` 0: the point ``y``) meets the window
+    ``low`` to ``high``."""
+    return (y + half >= low) & (y - half <= high)
 
 
 def interval_half_width(model, x: np.ndarray, level: float) -> np.ndarray | float:

@@ -370,25 +370,24 @@ def ramps_figure(optimization, windows: dict | None = None) -> Figure:
 def overlay_grid(models: dict, windows: dict, point, i: int, j: int, n: int = 81,
                  level: float | None = None) -> dict:
     """Coded grid over factors ``i`` and ``j`` (others at ``point``): ``{"gi", "gj",
-    "z": {response: predictions}, "half": {response: half interval}, "feasible": every
-    response inside its window}``. With ``level``, a response counts as inside where its
-    ``level`` confidence interval of the mean reaches into the window
+    "z": {response: predictions}, "inside": {response: inside its window}, "feasible":
+    every response inside its window}``. With ``level``, a response counts as inside where
+    its ``level`` confidence interval of the mean reaches into the window
     (:func:`demcal.optimize.overlay.interval_half_width`, as the compatible ranges)."""
-    from demcal.optimize.overlay import interval_half_width
+    from demcal.optimize.overlay import interval_half_width, reaches
 
     g = np.linspace(-1.0, 1.0, n)
     gi, gj = np.meshgrid(g, g, indexing="xy")
     pts = np.tile(np.asarray(point, dtype=float), (gi.size, 1))
     pts[:, i] = gi.ravel()
     pts[:, j] = gj.ravel()
-    z = {r: np.asarray(models[r].predict(pts), dtype=float).reshape(gi.shape) for r in windows}
-    half = {r: (np.zeros(gi.shape) if level is None
-                else np.broadcast_to(interval_half_width(models[r], pts, level), (gi.size,)).reshape(gi.shape))
-            for r in windows}
-    feasible = np.ones(gi.shape, bool)
-    for r, (lo, hi, _) in windows.items():
-        feasible &= (z[r] + half[r] >= lo) & (z[r] - half[r] <= hi)
-    return {"gi": gi, "gj": gj, "z": z, "half": half, "feasible": feasible}
+    z = {r: np.asarray(models[r].predict(pts), dtype=float) for r in windows}
+    inside = {r: reaches(z[r], 0.0 if level is None else interval_half_width(models[r], pts, level), lo,
+                         hi).reshape(gi.shape)
+              for r, (lo, hi, _) in windows.items()}
+    feasible = np.logical_and.reduce([inside[r] for r in windows]) if windows else np.ones(gi.shape, bool)
+    return {"gi": gi, "gj": gj, "z": {r: y.reshape(gi.shape) for r, y in z.items()}, "inside": inside,
+            "feasible": feasible}
 
 
 def overlay_figure(models: dict, optimization, windows: dict, i: int, j: int, point=None, n: int = 81,
@@ -458,10 +457,7 @@ def tests_figure(models: dict, optimization, windows: dict, parts: dict, i: int,
     colours = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:brown")
     handles = []
     for m, test in enumerate(dict.fromkeys(parts[r] for r in windows)):
-        alone = np.ones(grid["gi"].shape, bool)
-        for r, (lo, hi, _) in windows.items():
-            if parts[r] == test:
-                alone &= (grid["z"][r] + grid["half"][r] >= lo) & (grid["z"][r] - grid["half"][r] <= hi)
+        alone = np.logical_and.reduce([grid["inside"][r] for r in windows if parts[r] == test])
         colour = colours[m % len(colours)]
         if alone.any():
             ax.contourf(xi, xj, alone.astype(float), levels=[0.5, 1.5], colors=[colour], alpha=0.18, zorder=1)
