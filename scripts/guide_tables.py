@@ -204,6 +204,10 @@ CAMPAIGN_KEYS: dict[tuple[str, str], str] = {
                                          "by another runner (default 120).",
     ("executor", "backend"): "where the runs simulate: `cpu` (default) or `cuda` (an NVIDIA GPU "
                              "with numba-cuda, `pip install 'demcal[cuda]'`; docs/dem-backends.md).",
+    ("executor", "ensemble"): "with `backend = \"cuda\"`: up to this many runs stepped together on "
+                              "the GPU as one ensemble, in one worker process (each run joins as it "
+                              "is claimed and is recorded as it ends; docs/dem-backends.md, "
+                              "\"Ensembles\"); 0 (default) runs one run per worker process.",
     ("report", "title"): "the report's title; default the campaign's name.",
     ("report", "reference_table"): "a CSV of a published design with its responses, re-analysed "
                                    "in the report's last section; inside the campaign folder.",

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The cuda backend on a lent GPU, in one call: versions, correctness against the cpu
 # backend on the same machine, throughput, every sub-model compiled for the device,
-# a paper-profile funnel run's progress; JSON lines under $OUT, a table printed last.
+# a paper-profile funnel run's progress, ensembles; JSON lines under $OUT, a table
+# printed last.
 # demcal runs from the source tree (bench entry points from a dist-info shim, nothing
 # installed). The settled 5,000-particle packings travel in benchmarks/.packings/.
 set -u
@@ -33,4 +34,8 @@ timeout "${T_FUNNEL:-60}" python3 -m demcal bench repose-funnel --profile paper 
     > "$OUT/funnel.txt" 2>&1; echo "funnel exit $? at $(( $(date +%s) - t0 )) s"
 # 4. every sub-model and wall kind of the simulator tests, compiled for the device
 [ "${CASES:-1}" = 1 ] && timeout "${T_CASES:-60}" python3 tests/dem/cuda_sim_cases.py 30 > "$OUT/cases.jsonl" 2>"$OUT/cases.err"; echo "cases exit $? at $(( $(date +%s) - t0 )) s"
+# 5. ensembles: three systems together against each alone, compiled for the device
+#    (bits), then a design's small runs alone and as one ensemble (bits and wall times)
+timeout "${T_ENSEMBLE_BITS:-60}" python3 tests/dem/cuda_sim_ensemble.py > "$OUT/ensemble-bits.jsonl" 2>"$OUT/ensemble.err"; echo "ensemble bits exit $? at $(( $(date +%s) - t0 )) s"
+timeout "${T_ENSEMBLE:-90}" python3 $here/ensemble.py "$OUT/ensemble.jsonl" --test impact --profile tiny --runs 16 2>>"$OUT/ensemble.err"; echo "ensemble exit $? at $(( $(date +%s) - t0 )) s"
 python3 $here/table.py "$OUT"

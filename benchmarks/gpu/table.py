@@ -29,6 +29,12 @@ def main(folder) -> int:
         worst = max(r["relative"].values())
         print(f"case {r['case']:34s} cuda/cpu {worst:.2e} lists {r['same_lists']} "
               f"rebuilds {r['rebuilds']}")
+    for r in rows(f / "ensemble-bits.jsonl"):
+        if "system" in r:
+            print(f"ensemble bits {r['system'][:40]:40s} same {r.get('same_bits')} rebuilds {r.get('rebuilds')}")
+    for r in rows(f / "ensemble.jsonl"):
+        print(f"ensemble {r['test']} {r['profile']} x{r['runs']}: alone {r['alone_s']:.1f} s, together "
+              f"{r['together_s']:.1f} s ({r['speedup']:.2f}x), same bits {r['same_bits']}, rounds {r['rounds']}")
     if (f / "funnel.txt").exists():
         print("funnel:", (f / "funnel.txt").read_text()[-600:].replace("\r", "\n").splitlines()[-3:])
     return 0

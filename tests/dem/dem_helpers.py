@@ -3,8 +3,10 @@
 import math
 
 import numpy as np
+import pytest
 
 from demcal.dem import Simulation
+from demcal.dem.cuda.backend import numba_cuda_installed
 from demcal.dem.reporters import Reporter
 from demcal.geometry import Plane, WallSet
 from demcal.particles.materials import Interaction, Material
@@ -46,3 +48,8 @@ SOFT_WALL = Material(density=2500.0, shear_modulus=1.0e7, poisson_ratio=0.3,
 def tilted_gravity(theta, g=9.81):
     """Gravity of a plane z = 0 tilted by theta about the y axis: exact and cheap."""
     return np.array([g * math.sin(theta), 0.0, -g * math.cos(theta)])
+
+
+#: Marks a test that needs numba-cuda (its simulator runs the cuda backend without a GPU).
+needs_numba_cuda = pytest.mark.skipif(not numba_cuda_installed(),
+                                      reason="numba-cuda not installed (demcal[cuda])")

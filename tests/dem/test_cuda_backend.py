@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+from dem_helpers import needs_numba_cuda
+
 from demcal.errors import ConfigError
 
 HERE = Path(__file__).resolve().parent
@@ -26,17 +28,6 @@ TOLERANCE = 1e-12
 ALL_KINDS = {"plane", "disk", "cylinder", "cone", "rect", "triangle"}
 
 
-def _has_numba_cuda() -> bool:
-    from demcal.dem.cuda.backend import cuda_module
-    try:
-        cuda_module()
-    except ConfigError:
-        return False
-    return True
-
-
-needs_numba_cuda = pytest.mark.skipif(not _has_numba_cuda(),
-                                      reason="numba-cuda not installed (demcal[cuda])")
 
 
 #: The fast suite's cases (indices of ``cuda_sim_cases.CASES``): clumps with the

@@ -368,7 +368,8 @@ def _close_loops(campaign: Campaign, designs: list[DesignFit], notes: list[str],
             if executor is None and not own:
                 config = campaign.executor
                 own.append(make_executor(config.kind, config.workers if workers is None else workers,
-                                         scheduler or config.scheduler, config.start_method, campaign.plugins))
+                                         scheduler or config.scheduler, config.start_method, campaign.plugins,
+                                         ensemble=config.ensemble))
             summary = run_specs(campaign, specs, workers=workers, scheduler=scheduler, progress=progress,
                                 retry_failed=retry_failed, executor=executor or own[0], desc=desc)
             cache.clear()

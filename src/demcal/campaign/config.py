@@ -715,6 +715,11 @@ class _Loader(Reader):
             if problem:
                 raise self.error(("executor", "scheduler"),
                                  f"scheduler '{config.scheduler}' is not a Dask scheduler address: {problem}")
+        if config.ensemble and (config.backend != "cuda" or config.kind != "local" or config.scheduler):
+            raise self.error(("executor", "ensemble"),
+                             f"'ensemble' ({config.ensemble}) steps runs together on one GPU: it needs "
+                             "backend = \"cuda\" and a local executor; set backend = \"cuda\" or remove "
+                             "'ensemble'")
         return config
 
 

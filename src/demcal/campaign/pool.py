@@ -6,6 +6,12 @@ workers die with the runner and leave Ctrl-C, SIGTERM and SIGHUP to it (it stops
 then hands its claims back). A worker that dies (killed, out of memory, a crash) costs
 only its own run: it is replaced and that run is tried once more, and a second death
 is the run's failure.
+
+:class:`EnsembleExecutor` (``[executor] ensemble = N`` with backend ``cuda``) is one
+worker process that runs up to N tasks at once as one GPU ensemble
+(:mod:`demcal.dem.cuda.ensemble`): each task it receives joins the ensemble at once, and
+each outcome comes back as its run ends, so the runner records runs one by one and a
+kill loses only the runs in flight (tried once more, as a dead local worker's).
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ import multiprocessing.connection
 import os
 import signal
 import sys
+import threading
 import time
 import traceback
 from typing import Any, Mapping, Sequence
@@ -57,6 +64,18 @@ def _init_local_worker(parent_pid: int, threads: int, plugins: Sequence[str]) ->
     import_plugins(plugins)
 
 
+def _messages(conn):
+    """What the runner sends a worker, until it says stop (None) or is gone."""
+    while True:
+        try:
+            message = conn.recv()
+        except (EOFError, OSError):  # the runner is gone
+            return
+        if message is None:
+            return
+        yield message
+
+
 def _local_worker(conn, parent_pid: int, threads: int, plugins: Sequence[str]) -> None:
     """A worker process of :class:`LocalExecutor`: receive a task, send its outcome, repeat."""
     try:
@@ -64,13 +83,7 @@ def _local_worker(conn, parent_pid: int, threads: int, plugins: Sequence[str]) -
         broken = None
     except Exception as exc:  # a plug-in that does not import: every task says so
         broken = f"the worker process could not start ({type(exc).__name__}: {exc})"
-    while True:
-        try:
-            task = conn.recv()
-        except (EOFError, OSError):  # the runner is gone
-            return
-        if task is None:
-            return
+    for task in _messages(conn):
         if broken:
             outcome = {"ok": False, "error": broken}
         else:
@@ -95,9 +108,9 @@ class _Task:
 class _Worker:
     """One worker process and the pipe to it."""
 
-    def __init__(self, context, initargs: tuple):
+    def __init__(self, context, initargs: tuple, target=_local_worker):
         self.conn, child = context.Pipe()
-        self.process = context.Process(target=_local_worker, args=(child, *initargs), daemon=True,
+        self.process = context.Process(target=target, args=(child, *initargs), daemon=True,
                                        name="demcal-worker")
         self.process.start()
         child.close()
@@ -240,6 +253,151 @@ class LocalExecutor:
         for worker in self._pool:
             worker.stop(kill=cancel or worker.task is not None)
         self._pool.clear()
+
+
+def _safe_execute(task: dict[str, Any]) -> dict[str, Any]:
+    try:
+        return execute(task)
+    except BaseException as exc:  # noqa: BLE001 - execute() catches run errors; this is the rest
+        return {"ok": False, "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
+
+
+def _ensemble_worker(conn, parent_pid: int, plugins: Sequence[str]) -> None:
+    """The worker process of :class:`EnsembleExecutor`: every ``(ident, task)`` received
+    joins one ensemble at once; ``(ident, outcome)`` is sent as each run ends."""
+    lock = threading.Lock()
+
+    def send(message) -> None:
+        with lock:
+            try:
+                conn.send(message)
+            except (OSError, ValueError):  # the runner is gone
+                pass
+
+    try:
+        _init_local_worker(parent_pid, 1, plugins)
+        from demcal.dem.cuda.ensemble import Ensemble
+
+        ensemble = Ensemble()
+    except Exception as exc:  # no device, a plug-in that does not import: every task says so
+        broken = f"the ensemble worker could not start ({type(exc).__name__}: {exc})"
+        for ident, _ in _messages(conn):
+            send((ident, {"ok": False, "error": broken}))
+        return
+
+    def receive() -> None:
+        for ident, task in _messages(conn):
+            ensemble.add(lambda task=task: _safe_execute(task),
+                         lambda outcome, ident=ident: send((ident, outcome)))
+        ensemble.close()
+
+    threading.Thread(target=receive, daemon=True, name="demcal-ensemble-receive").start()
+    ensemble.serve()
+
+
+class EnsembleExecutor:
+    """One worker process stepping up to ``size`` runs together on the GPU.
+
+    The runner keeps ``size`` runs in flight (:attr:`workers`); each task submitted goes
+    to the worker at once and joins its ensemble (:mod:`demcal.dem.cuda.ensemble`),
+    whose rounds step every run whose simulation waits for steps. Outcomes come back
+    one by one. A worker that dies costs the runs in flight: each is tried once more on
+    a new worker, on its own (no other run beside it), and a second death is its
+    failure, as with :class:`LocalExecutor`.
+
+    Parameters
+    ----------
+    size : runs in one ensemble.
+    start_method : ``"spawn"`` or ``"forkserver"``.
+    plugins : modules the worker imports to register extra experiments.
+    """
+
+    kind = "ensemble"
+    RETRIES = 1
+
+    def __init__(self, size: int, start_method: str = "spawn", plugins: Sequence[str] = ()):
+        self.workers = max(1, int(size))
+        self.threads = 1
+        self.plugins = tuple(plugins)
+        self._context = multiprocessing.get_context(start_method)
+        self._worker: _Worker | None = None
+        self._running: dict[int, _Task] = {}
+        self._queue: collections.deque[_Task] = collections.deque()
+        self._ident = 0
+
+    @property
+    def description(self) -> str:
+        return f"one GPU ensemble of up to {self.workers} run{'s' if self.workers != 1 else ''}"
+
+    def submit(self, task: Mapping[str, Any]) -> _Task:
+        handle = _Task(dict(task, threads=1))
+        self._queue.append(handle)
+        self._dispatch()
+        return handle
+
+    def _dispatch(self) -> None:
+        """Send queued tasks to the worker (started if need be). A run whose worker died
+        is tried again on its own, so that a second death is its own and not a run's
+        that happened to share its ensemble."""
+        if self._worker is not None and not self._worker.process.is_alive():
+            self._lost()
+        while self._queue:
+            if self._running and (self._queue[0].deaths
+                                  or any(h.deaths for h in self._running.values())):
+                return
+            if self._worker is None:
+                self._worker = _Worker(self._context, (os.getpid(), self.plugins), target=_ensemble_worker)
+            handle = self._queue.popleft()
+            self._ident += 1
+            self._running[self._ident] = handle
+            try:
+                self._worker.conn.send((self._ident, handle.task))
+            except (OSError, ValueError):  # it died before it got the task
+                self._lost()
+
+    def _lost(self) -> None:
+        """The worker died: its runs in flight are tried again, or fail after a second death."""
+        worker, self._worker = self._worker, None
+        worker.process.join(1.0)
+        worker.stop(kill=True)
+        death = _death(worker.process.exitcode)
+        for handle in reversed(list(self._running.values())):
+            handle.deaths.append(death)
+            if len(handle.deaths) <= self.RETRIES:
+                self._queue.appendleft(handle)   # first, each on its own (_dispatch)
+            else:
+                handle.outcome = {"ok": False, "error": _died(handle.deaths)}
+        self._running.clear()
+
+    def wait(self, handles: Sequence[Any], timeout: float) -> list[tuple[Any, dict[str, Any]]]:
+        """Wait up to ``timeout`` seconds; return ``(handle, outcome)`` for each finished one."""
+        deadline = time.monotonic() + timeout
+        while True:
+            finished = [(h, h.outcome) for h in handles if h.outcome is not None]
+            left = deadline - time.monotonic()
+            worker = self._worker
+            if finished or worker is None or not self._running or left <= 0:
+                return finished
+            multiprocessing.connection.wait([worker.conn, worker.process.sentinel], timeout=left)
+            try:
+                while worker.conn.poll():
+                    ident, outcome = worker.conn.recv()
+                    handle = self._running.pop(ident, None)
+                    if handle is not None:
+                        handle.outcome = outcome
+            except (EOFError, OSError):
+                pass
+            if not worker.process.is_alive():
+                self._lost()
+            self._dispatch()
+
+    def close(self, cancel: bool = False) -> None:
+        """Stop the worker: at once (``cancel``, its runs are lost) or once idle."""
+        self._queue.clear()
+        if self._worker is not None:
+            self._worker.stop(kill=cancel or bool(self._running))
+            self._worker = None
+        self._running.clear()
 
 
 def _died(deaths: Sequence[str]) -> str:

@@ -247,7 +247,8 @@ def run_specs(
                 config = campaign.executor
                 executor = make_executor(
                     config.kind, config.workers if workers is None else workers,
-                    scheduler or config.scheduler, config.start_method, campaign.plugins)
+                    scheduler or config.scheduler, config.start_method, campaign.plugins,
+                    ensemble=config.ensemble)
             summary.executor = executor.description
             _drain(store, unique, executor, summary, campaign, progress, desc or campaign.name,
                    before, engine_version)

@@ -27,7 +27,7 @@ Layout (``examples/residual-film-soil/repose.toml`` is a full example)::
                     box_moves, box_replicates, path_points, path_replicates, verify_on_path,
                     stored_noise, replicate_batch (the closed loop of :mod:`demcal.campaign.loop`)
     [budget]        runs, cpu_hours
-    [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s, backend
+    [executor]      kind, workers, scheduler, start_method, heartbeat_timeout_s, backend, ensemble
     [report]        title, reference_table, captions = {KEY = "source", ...} (the published
                     tables each report table reproduces, e.g. ``factors = "paper Table 3"``:
                     only a campaign that reproduces a publication names one; see
@@ -329,6 +329,9 @@ class ExecutorConfig:
                                      doc="a run whose worker is silent this long is taken back [s]")
     backend: str = key("cpu", choices=("cpu", "cuda"), doc="the compute backend of every run "
                                                            "(demcal.dem.backend.BACKENDS)")
+    ensemble: int = key(0, minimum=0, doc="with backend cuda: up to this many runs stepped together on "
+                                          "the GPU as one ensemble (demcal.dem.cuda.ensemble); 0 = one run "
+                                          "per worker process")
 
 
 #: ``[report] captions`` keys: the report table (or text) each one's source is added to.

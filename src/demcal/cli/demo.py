@@ -72,7 +72,7 @@ def run_demo(out: str | Path = "demo-output", profile: str = "quick", workers: i
 
     config = campaigns[0].executor
     executor = make_executor(config.kind, config.workers if workers is None else workers, config.scheduler,
-                             config.start_method, campaigns[0].plugins)
+                             config.start_method, campaigns[0].plugins, ensemble=config.ensemble)
     calibrations = []
     try:
         for campaign in campaigns:  # in order: a chained campaign needs the calibration of the one before

@@ -179,3 +179,15 @@ from .cuda.backend import CudaBackend  # noqa: E402  (numba.cuda is imported on 
 #: Compute backends, by name: ``cuda`` needs numba-cuda and a GPU (or its simulator),
 #: and says so in one sentence when chosen without them.
 BACKENDS = {"cpu": CpuBackend, "cuda": CudaBackend}
+
+
+def make_backend(name: str, threads: int):
+    """The backend object of a new simulation: ``BACKENDS[name](threads)``, or, for
+    ``cuda`` inside an ensemble's job, a member of that ensemble
+    (:mod:`demcal.dem.cuda.ensemble`)."""
+    if name == "cuda":
+        from .cuda.ensemble import member_backend
+        member = member_backend(threads)
+        if member is not None:
+            return member
+    return BACKENDS[name](threads)

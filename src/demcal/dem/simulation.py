@@ -21,7 +21,7 @@ from . import control as _control
 from . import insertion as _insertion
 from . import stepping as _stepping
 from . import timestep as _ts
-from .backend import BACKENDS
+from .backend import BACKENDS, make_backend  # noqa: F401  (BACKENDS: public here)
 from .description import describe
 from .gravity import GravitySchedule, ScheduleClock
 from .lists import ListBuilder
@@ -115,7 +115,7 @@ class Simulation:
         self.step_count = 0
         self._walls = WallTable(walls, self.time, d.material_table)
         self.gravity_schedule = schedule
-        self._backend = BACKENDS[d.backend](d.threads)
+        self._backend = make_backend(d.backend, d.threads)
         self._store = Store.empty()
         self._ordering = Ordering()
         self._lists = ListBuilder(self._backend)

@@ -31,6 +31,7 @@ import math
 import os
 import time as time_module
 import warnings
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -72,6 +73,16 @@ def cuda_module():
     return cuda
 
 
+def numba_cuda_installed() -> bool:
+    """Whether numba-cuda is installed (its simulator, ``NUMBA_ENABLE_CUDASIM=1``, then
+    runs the cuda backend without a GPU)."""
+    try:
+        cuda_module()
+    except ConfigError:
+        return False
+    return True
+
+
 def device_present() -> bool:
     """Whether numba-cuda is installed and sees a GPU (its simulator does not count)."""
     if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
@@ -96,11 +107,39 @@ def transposed(start: np.ndarray, other: np.ndarray):
     return tstart, tslot, srow
 
 
-class _Device:
-    """The store's arrays on the device for one call (uploaded on construction)."""
+class Systems(NamedTuple):
+    """The systems side by side in one device state (:mod:`.kernels`, "Systems"): each
+    sphere's and body's system, each system's wall rows ``wall_lo[s]:wall_lo[s + 1]``,
+    time step [s], clock [s], walls' travel since its last build and bound per step [m],
+    half skin [m] and gravity row [m/s2]."""
 
-    def __init__(self, cuda, store, walls=None, index=None, motions=None, table=None,
-                 gravity=None):
+    sphere: np.ndarray
+    body: np.ndarray
+    wall_lo: np.ndarray
+    dt: np.ndarray
+    time: np.ndarray
+    travel: np.ndarray
+    travel_per_step: np.ndarray
+    half_skin: np.ndarray
+    gravity: np.ndarray
+
+    @classmethod
+    def single(cls, ns, nb, nw, dt, time=0.0, travel=0.0, travel_per_step=0.0, half_skin=0.0,
+               gravity=(0.0, 0.0, 0.0)) -> "Systems":
+        """One system of ``ns`` spheres, ``nb`` bodies and ``nw`` wall rows."""
+        return cls(np.zeros(ns, np.int64), np.zeros(nb, np.int64), np.array([0, nw], np.int64),
+                   np.array([dt], np.float64), np.array([time], np.float64),
+                   np.array([travel], np.float64), np.array([travel_per_step], np.float64),
+                   np.array([half_skin], np.float64),
+                   np.asarray(gravity, np.float64).reshape(1, 3).copy())
+
+
+class _Device:
+    """The store's arrays on the device for one call (uploaded on construction), with the
+    systems they hold (:class:`Systems`)."""
+
+    def __init__(self, cuda, store, systems: Systems, walls=None, index=None, motions=None,
+                 table=None):
         self.cuda = cuda
         put = cuda.to_device
         self.b = {k: put(v) for k, v in zip(store.bodies._fields, store.bodies)}
@@ -111,12 +150,17 @@ class _Device:
         self.m = None if motions is None else [put(np.ascontiguousarray(v)) for v in motions]
         self.index = None if index is None else [put(v) for v in index]
         self.table = None if table is None else put(table)
-        self.gravity = None if gravity is None else put(np.asarray(gravity, np.float64))
+        self.sys = {k: put(v) for k, v in zip(systems._fields, systems)}
+        self.nsys = int(systems.dt.shape[0])
         self.npair = int(store.pairs.start[-1])
         self.slot_out = cuda.device_array((max(self.npair, 1), SLOT_OUT_WIDTH))
-        self.flag = put(np.zeros(2, np.int64))
-        self.mx = put(np.zeros(1))
+        self.flag = put(np.zeros((self.nsys, 2), np.int64))
+        self.mx = put(np.zeros(self.nsys))
         self.lists_rebuilt = False
+
+    def clocks(self):
+        """Each system's clock [s] and walls' travel [m], from the device."""
+        return self.sys["time"].copy_to_host(), self.sys["travel"].copy_to_host()
 
     def download(self, store, walls=None) -> None:
         """Copy what the device changed into the host store (and wall rows); lists rebuilt
@@ -196,52 +240,67 @@ class CudaBackend:
         from .kernels import common_kernels, contact_kernels
         return common_kernels(), contact_kernels(tuple(chosen.ids))
 
-    def _forces(self, dev, pk, chosen_kernels, table, dt, kick) -> None:
+    @staticmethod
+    def _forces(dev, pk, chosen_kernels, kick) -> None:
         """Launch one step's force kernels: the pair slots, each sphere's sums (pairs,
         then walls), each body's sum and kick."""
         from .kernels import blocks, BLOCK
         k_kick = pk[2]
         k_slots, k_spheres = chosen_kernels
-        b, s, p, q, w = dev.b, dev.s, dev.p, dev.q, dev.w
+        b, s, p, q, w, y = dev.b, dev.s, dev.p, dev.q, dev.w, dev.sys
         ns = s["pos"].shape[0]
         nb = b["pos"].shape[0]
         tstart, tslot, srow = dev.index
+        table, dts = dev.table, y["dt"]
         k_slots[blocks(dev.npair), BLOCK](
-            dev.flag, dev.npair, table, dt, s["pos"], s["radius"], s["body"], b["pos"],
-            b["vel"], b["omega"], b["mass"], b["iso"], b["mat"], srow, p["other"], p["hist"],
-            p["out"], p["act"], dev.slot_out)
+            dev.flag, y["sphere"], dev.npair, table, dts, s["pos"], s["radius"], s["body"],
+            b["pos"], b["vel"], b["omega"], b["mass"], b["iso"], b["mat"], srow, p["other"],
+            p["hist"], p["out"], p["act"], dev.slot_out)
         k_spheres[blocks(ns), BLOCK](
-            dev.flag, table, dt, s["pos"], s["radius"], s["body"], b["pos"], b["vel"],
-            b["omega"], b["mass"], b["iso"], b["mat"], p["start"], p["act"], dev.slot_out,
-            tstart, tslot, q["start"], q["other"], q["hist"], q["out"], q["act"], s["acc"],
-            w["kind"], w["params"], w["velocity"], w["omega"], w["origin"], w["material"])
-        k_kick[blocks(nb), BLOCK](dev.flag, dt, dev.gravity, b["vel"], b["quat"], b["angmom"],
-                                  b["omega"], b["force"], b["torque"], b["mass"], b["inertia"],
-                                  b["fixed"], b["start"], s["acc"], kick)
+            dev.flag, y["sphere"], table, dts, s["pos"], s["radius"], s["body"], b["pos"],
+            b["vel"], b["omega"], b["mass"], b["iso"], b["mat"], p["start"], p["act"],
+            dev.slot_out, tstart, tslot, q["start"], q["other"], q["hist"], q["out"], q["act"],
+            s["acc"], w["kind"], w["params"], w["velocity"], w["omega"], w["origin"],
+            w["material"])
+        k_kick[blocks(nb), BLOCK](dev.flag, y["body"], dts, y["gravity"], b["vel"], b["quat"],
+                                  b["angmom"], b["omega"], b["force"], b["torque"], b["mass"],
+                                  b["inertia"], b["fixed"], b["start"], s["acc"], kick)
 
-    def _drift(self, dev, pk, dt) -> None:
+    @staticmethod
+    def _drift(dev, pk) -> None:
         from .kernels import blocks, BLOCK
         b, s = dev.b, dev.s
         pk[0][blocks(b["pos"].shape[0]), BLOCK](
-            dev.flag, dt, b["pos"], b["vel"], b["quat"], b["angmom"], b["omega"], b["force"],
-            b["torque"], b["mass"], b["inertia"], b["fixed"], b["start"], s["offset"],
-            s["pos"], s["ref"], s["dsq"], dev.mx)
+            dev.flag, dev.sys["body"], dev.sys["dt"], b["pos"], b["vel"], b["quat"],
+            b["angmom"], b["omega"], b["force"], b["torque"], b["mass"], b["inertia"],
+            b["fixed"], b["start"], s["offset"], s["pos"], s["ref"], s["dsq"], dev.mx)
+
+    @staticmethod
+    def _check(dev, pk, step) -> None:
+        """Each system's clock, skin test and wall motions after a drift (``k_check``)."""
+        from .kernels import blocks, BLOCK
+        y, w = dev.sys, dev.w
+        pk[1][blocks(dev.nsys), BLOCK](
+            dev.flag, step, y["time"], y["travel"], y["dt"], y["travel_per_step"],
+            y["half_skin"], dev.mx, y["wall_lo"], *dev.m, w["kind"], w["params"],
+            w["origin"], w["velocity"], w["omega"])
 
     def forces(self, chosen, table, dt, gravity, store, walls, kick) -> None:
         if store.spheres.n == 0:
             return
         pk, ck = self._kernels(chosen)
-        dev = _Device(self.cuda, store, walls, self.index(store), table=table,
-                      gravity=gravity)
-        self._forces(dev, pk, ck, dev.table, dt, bool(kick))
+        systems = Systems.single(store.spheres.n, store.bodies.n, walls.kind.shape[0], dt,
+                                 gravity=gravity)
+        dev = _Device(self.cuda, store, systems, walls, self.index(store), table=table)
+        self._forces(dev, pk, ck, bool(kick))
         dev.download(store)
 
     def drift(self, dt, store) -> float:
         if store.bodies.n == 0:
             return 0.0
         from .kernels import common_kernels
-        dev = _Device(self.cuda, store)
-        self._drift(dev, common_kernels(), dt)
+        dev = _Device(self.cuda, store, Systems.single(store.spheres.n, store.bodies.n, 0, dt))
+        self._drift(dev, common_kernels())
         mx = float(dev.mx.copy_to_host()[0])
         dev.download(store)
         return math.sqrt(mx)
@@ -255,54 +314,48 @@ class CudaBackend:
         if nsteps <= 0:
             return 0, False, params.time, params.travel
         pk, ck = self._kernels(params.chosen)
-        k_check = pk[1]
         # rebuilds on the device need the walls' bounding boxes, which only the host
         # moves along with the walls
         on_device = not np.any(motions[0])
         t0 = time_module.perf_counter()
-        dev = _Device(self.cuda, store, walls, self.index(store), motions, params.table,
-                      params.gravity)
+        systems = Systems.single(store.spheres.n, store.bodies.n, walls.kind.shape[0],
+                                 params.dt, params.time, params.travel,
+                                 params.travel_per_step, params.half_skin, params.gravity)
+        dev = _Device(self.cuda, store, systems, walls, self.index(store), motions,
+                      params.table)
         self.cuda.synchronize()
         t1 = time_module.perf_counter()
         self.seconds["upload"] += t1 - t0
-        w, m = dev.w, dev.m
-        time, travel, dt = params.time, params.travel, params.dt
         done = 0
         while done < nsteps:
             batch = min(BATCH, nsteps - done)
-            times, travels = [], []
             for k in range(batch):
-                self._drift(dev, pk, dt)
-                time += dt
-                travel += params.travel_per_step
-                times.append(time)
-                travels.append(travel)
-                k_check[1, 1](dev.flag, k, time, travel, params.half_skin, dev.mx, *m,
-                              w["kind"], w["params"], w["origin"], w["velocity"], w["omega"])
-                self._forces(dev, pk, ck, dev.table, dt, True)
+                self._drift(dev, pk)
+                self._check(dev, pk, k)
+                self._forces(dev, pk, ck, True)
             flag = dev.flag.copy_to_host()
-            if not flag[0]:
+            if not flag[0, 0]:
                 done += batch
                 continue
-            k = int(flag[1])
-            done += k + 1
-            time, travel = times[k], travels[k]
+            done += int(flag[0, 1]) + 1
             if self._lists is None and on_device:
                 from .lists import DeviceLists
                 self._lists = DeviceLists()
-            if (flag[0] != 1 or not on_device or self.step_count + done >= self.host_rebuild_at
+            if (flag[0, 0] != 1 or not on_device or self.step_count + done >= self.host_rebuild_at
                     or self._lists.left_domain(dev, self.domain)):
+                time, travel = dev.clocks()
                 self._download(dev, store, walls, t1)
-                return done, True, time, travel
+                return done, True, float(time[0]), float(travel[0])
             # stepping.advance on the host: rebuild, then this step's forces and kick
             self._lists.rebuild(dev, 2.0 * params.half_skin)
             dev.lists_rebuilt = True
             self.device_rebuilds += 1
-            travel = 0.0
-            dev.flag.copy_to_device(np.zeros(2, np.int64))
-            self._forces(dev, pk, ck, dev.table, dt, True)
+            dev.sys["travel"].copy_to_device(np.zeros(1))
+            dev.flag.copy_to_device(np.zeros((1, 2), np.int64))
+            self._forces(dev, pk, ck, True)
+        time, travel = dev.clocks()
         self._download(dev, store, walls, t1)
-        return nsteps, False, time, travel
+        return nsteps, False, float(time[0]), float(travel[0])
 
     def pop_rebuilds(self) -> int:
         """Rebuilds done on the device since the last call (the host counts them)."""

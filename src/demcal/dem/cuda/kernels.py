@@ -10,9 +10,10 @@ takes a range of many. Per step (:class:`.backend.CudaBackend`), four kinds of l
 * ``k_drift`` (one thread per body): half kick, drift, sphere positions; the largest
   squared move since the last build, reduced per block and then by one atomic max per
   block (a maximum is exact in any order);
-* ``k_check`` (one thread): the skin test of ``stepper._run_steps``, then the compiled
-  wall motions. Once a rebuild is due it raises ``flag[0]`` and every later kernel of
-  the batch returns at once, so the host queues many steps and reads one flag;
+* ``k_check`` (one thread per system): the clock, the skin test of
+  ``stepper._run_steps``, then the compiled wall motions. Once a rebuild is due it
+  raises the system's flag and every later kernel of the batch leaves that system
+  alone, so the host queues many steps and reads the flags once;
 * ``k_slots`` (one thread per pair slot): the contact of slot p = (i, j) with the
   expressions of ``forces.pair_forces``; the history in place, and the force on i, i's
   torque term and j's reaction term in ``slot_out[p]``. Each contact is evaluated once;
@@ -24,6 +25,16 @@ takes a range of many. Per step (:class:`.backend.CudaBackend`), four kinds of l
 Every sum is taken by one thread in the CPU's order and no floating-point atomics enter
 a sum, so a run gives the same bits on every launch; with NVVM's FMA contraction off
 (:func:`.compile.exact_arithmetic`) they are the CPU's operations too.
+
+**Systems.** The arrays may hold several independent systems side by side (an ensemble,
+:mod:`.ensemble`; one system for a single simulation): ``sys_sphere`` and ``sys_body``
+name each sphere's and body's system, and each system has its own row of ``flag`` (its
+rebuild flag and the step that raised it), its own step ``dts``, clock ``times``, walls'
+travel ``travels``, gravity row, largest move ``mx`` and wall rows ``wall_lo[s]:
+wall_lo[s + 1]``. A system whose flag is up is left alone by every later kernel of the
+batch while the others go on. The systems never meet: their spheres are in no common
+list (:mod:`.ensemble` concatenates each system's own lists) and their materials are
+separate blocks of one pair table.
 """
 
 from __future__ import annotations
@@ -124,43 +135,66 @@ def common_kernels():
     place = device_function(place_moving)
 
     @cuda.jit
-    def k_drift(flag, dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                binertia, bfixed, bstart, soffset, spos, sref, sdsq, mx):
+    def k_drift(flag, sys_body, dts, bpos, bvel, bquat, bangmom, bomega, bforce, btorque,
+                bmass, binertia, bfixed, bstart, soffset, spos, sref, sdsq, mx):
         b = cuda.grid(1)
+        nb = bpos.shape[0]
         m = 0.0
-        if flag[0] == 0 and b < bpos.shape[0]:
-            m = drift(dt, bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-                      binertia, bfixed, bstart, soffset, spos, sref, sdsq, b, b + 1)
-        # the block's largest move first, then one atomic per block (one address
-        # contended by every thread of a million-body grid would serialise the step)
-        m = block_max(m)
-        if cuda.threadIdx.x == 0 and m > 0.0:
-            cuda.atomic.max(mx, 0, m)
+        s = 0
+        if b < nb:
+            s = sys_body[b]
+            if flag[s, 0] == 0:
+                m = drift(dts[s], bpos, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+                          binertia, bfixed, bstart, soffset, spos, sref, sdsq, b, b + 1)
+        # a block of one system: its largest move first, then one atomic per block (one
+        # address contended by every thread of a million-body grid would serialise the
+        # step); a block across systems: one atomic per thread, into its own system's
+        first = cuda.blockIdx.x * cuda.blockDim.x
+        last = min(first + cuda.blockDim.x, nb) - 1
+        if sys_body[first] == sys_body[last]:
+            m = block_max(m)
+            if cuda.threadIdx.x == 0 and m > 0.0:
+                cuda.atomic.max(mx, sys_body[first], m)
+        elif m > 0.0:
+            cuda.atomic.max(mx, s, m)
 
     @cuda.jit
-    def k_check(flag, step, time, travel, half_skin, mx, tflag, tvel, tstart, tstop,
-                ref_params, ref_origin, axis, point, rate, wkind, wparams, worigin, wvel,
-                womega):
-        if cuda.grid(1) != 0 or flag[0] != 0:
+    def k_check(flag, step, times, travels, dts, travel_per_step, half_skin, mx, wall_lo,
+                tflag, tvel, tstart, tstop, ref_params, ref_origin, axis, point, rate,
+                wkind, wparams, worigin, wvel, womega):
+        # one thread per system: its clock, then the skin test of stepper._run_steps
+        # (a rebuild when the largest move plus the walls' travel passes half the skin;
+        # NaN positions give mx = inf), then its compiled wall motions
+        s = cuda.grid(1)
+        if s >= flag.shape[0] or flag[s, 0] != 0:
             return
-        m = mx[0]
-        mx[0] = 0.0
-        # stepper._run_steps: a rebuild when the largest move plus the walls' travel
-        # passes half the skin (NaN positions give mx = inf)
-        if not math.sqrt(m) + travel <= half_skin:
-            flag[0] = 2 if m == math.inf else 1   # 2: NaN or infinite positions
-            flag[1] = step
+        time = times[s] + dts[s]
+        times[s] = time
+        travel = travels[s] + travel_per_step[s]
+        travels[s] = travel
+        m = mx[s]
+        mx[s] = 0.0
+        if not math.sqrt(m) + travel <= half_skin[s]:
+            flag[s, 0] = 2 if m == math.inf else 1   # 2: NaN or infinite positions
+            flag[s, 1] = step
             return
-        place(time, tflag, tvel, tstart, tstop, axis, point, rate, ref_params, ref_origin,
-              wkind, wparams, worigin, wvel, womega)
+        a = wall_lo[s]
+        z = wall_lo[s + 1]
+        if z > a:
+            place(time, tflag[a:z], tvel[a:z], tstart[a:z], tstop[a:z], axis[a:z], point[a:z],
+                  rate[a:z], ref_params[a:z], ref_origin[a:z], wkind[a:z], wparams[a:z],
+                  worigin[a:z], wvel[a:z], womega[a:z])
 
     @cuda.jit
-    def k_kick(flag, dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
-               binertia, bfixed, bstart, sacc, kick):
+    def k_kick(flag, sys_body, dts, gravity, bvel, bquat, bangmom, bomega, bforce, btorque,
+               bmass, binertia, bfixed, bstart, sacc, kick):
         b = cuda.grid(1)
-        if flag[0] != 0 or b >= bvel.shape[0]:
+        if b >= bvel.shape[0]:
             return
-        gather_kick(dt, gravity, bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
+        s = sys_body[b]
+        if flag[s, 0] != 0:
+            return
+        gather_kick(dts[s], gravity[s], bvel, bquat, bangmom, bomega, bforce, btorque, bmass,
                     binertia, bfixed, bstart, sacc, kick, b, b + 1)
 
     return k_drift, k_check, k_kick
@@ -180,15 +214,19 @@ def contact_kernels(ids: tuple):
     normal, damping, tangential, rolling = (int(v) for v in ids)
 
     @cuda.jit
-    def k_slots(flag, npair, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
-                bmat, srow, nbr, hist, pair_out, act, slot_out):
+    def k_slots(flag, sys_sphere, npair, table, dts, spos, srad, sbody, bpos, bvel, bomega,
+                bmass, biso, bmat, srow, nbr, hist, pair_out, act, slot_out):
         # one pair slot p = (i, j), as forces.pair_forces evaluates it in row i
         # (forces.pair_contact; its sums are gather_pairs'): the force on i, i's torque
         # term and j's to slot_out, the new history in place
         p = cuda.grid(1)
-        if flag[0] != 0 or p >= npair:
+        if p >= npair:
             return
         i = srow[p]
+        s = sys_sphere[i]
+        if flag[s, 0] != 0:
+            return
+        dt = dts[s]
         j = nbr[p]
         bi = sbody[i]
         ri = srad[i]
@@ -225,13 +263,15 @@ def contact_kernels(ids: tuple):
         slot_out[p, 8] = tjz
 
     @cuda.jit
-    def k_spheres(flag, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
-                  bmat, row_start, act, slot_out, tstart, tslot, wall_start, wid, whist,
-                  wall_out, wactive, sacc, wkind, wparams, wvel, womega, worigin, wmat):
+    def k_spheres(flag, sys_sphere, table, dts, spos, srad, sbody, bpos, bvel, bomega, bmass,
+                  biso, bmat, row_start, act, slot_out, tstart, tslot, wall_start, wid,
+                  whist, wall_out, wactive, sacc, wkind, wparams, wvel, womega, worigin,
+                  wmat):
         # sphere i's contact sums: its pair terms (gather_pairs), then its wall contacts
         i = cuda.grid(1)
-        if flag[0] != 0 or i >= spos.shape[0]:
+        if i >= spos.shape[0] or flag[sys_sphere[i], 0] != 0:
             return
+        dt = dts[sys_sphere[i]]
         gather_pairs(i, row_start, act, slot_out, tstart, tslot, sacc)
         chosen = ChosenIds(normal, damping, tangential, rolling)
         wall_forces(chosen, table, dt, spos, srad, sbody, bpos, bvel, bomega, bmass, biso,
