@@ -1,13 +1,14 @@
 """Three systems stepped as one ensemble against each run alone, in numba-cuda's simulator.
 
 Run as a script (``NUMBA_ENABLE_CUDASIM=1``, set by tests/dem/test_cuda_ensemble.py in a
-subprocess of its own): three small beds that differ in everything an ensemble must keep
+subprocess of its own): four small beds that differ in everything an ensemble must keep
 apart (contact parameters, particle counts and kinds, walls, a wall turning at its own
-rate, the time step, gravity) are settled on the CPU, stirred and checkpointed; each is
-then run alone on the cuda backend and the three together in an
-:class:`~demcal.dem.cuda.ensemble.Ensemble`, from the same checkpoints. Prints one JSON
-line per system: whether every field, list and contact history is the same to the bit,
-and the rebuilds on each side; then one line of the ensemble's rounds.
+rate, the time step, gravity, and for the last the contact model) are settled on the
+CPU, stirred and checkpointed; each is then run alone on the cuda backend and the four
+together in an :class:`~demcal.dem.cuda.ensemble.Ensemble`, from the same checkpoints,
+beside a fifth job that fails after 5 steps. Prints the failing job's result, then one
+JSON line per system: whether every field, list and contact history is the same to the
+bit, and the rebuilds on each side; then one line of the ensemble's rounds.
 """
 
 from __future__ import annotations
@@ -42,24 +43,30 @@ def turning_cylinder():
     return walls
 
 
-#: (name, interaction, clumps, walls, particles, seed, dt or None, gravity, stir [m/s])
+#: (name, interaction, clumps, walls, particles, seed, dt or None, gravity, stir [m/s],
+#: contact and rolling models): the last has other sub-models, so it is stepped as a
+#: group of its own in each round
+HM = ("hertz_mindlin", "cdt")
 SYSTEMS = [
     ("spheres in a box", Interaction(restitution=0.4, static_friction=0.5, rolling_friction=0.1),
-     False, box_walls, 30, 7, None, (0.0, 0.0, -9.81), 1.5),
+     False, box_walls, 30, 7, None, (0.0, 0.0, -9.81), 1.5, HM),
     ("clumps in a box, other friction, tilted gravity",
      Interaction(restitution=0.6, static_friction=0.3, rolling_friction=0.05), True, box_walls, 14, 8,
-     None, (1.5, 0.0, -9.7), 1.0),
+     None, (1.5, 0.0, -9.7), 1.0, HM),
     ("spheres in a turning cup, another step",
      Interaction(restitution=0.5, static_friction=0.7, rolling_friction=0.2), False,
-     turning_cylinder, 24, 9, 2.0e-6, (0.0, 0.0, -9.81), 2.0),
+     turning_cylinder, 24, 9, 2.0e-6, (0.0, 0.0, -9.81), 2.0, HM),
+    ("clumps in a box, another contact model",
+     Interaction(restitution=0.4, static_friction=0.5, rolling_friction=0.1), True, box_walls, 16, 10,
+     None, (0.0, 0.0, -9.81), 1.0, ("hysteretic_spring", "type_a")),
 ]
 
 
 def build(backend, system):
-    name, inter, clumps, walls, n, seed, dt, gravity, _ = system
+    name, inter, clumps, walls, n, seed, dt, gravity, _, (model, rolling) = system
     template = two_sphere_paper(resolution=32).scaled(0.25) if clumps else 0.002
     sim = Simulation([SOFT, STEEL], {(0, 0): inter, (0, 1): inter}, walls=walls(), dt=dt,
-                     gravity=gravity, contact_model="hertz_mindlin", rolling_model="cdt",
+                     gravity=gravity, contact_model=model, rolling_model=rolling,
                      threads=1, backend=backend)
     ins = insert(BoxRegion((-0.009, -0.009, 0.012), (0.009, 0.009, 0.05)), n, template=template,
                  sizes=Uniform(0.8, 1.2), seed=seed)
@@ -95,22 +102,31 @@ def main(argv=None) -> int:
     # waits, at 10 us the simulator tests run 2-3 times faster
     sys.setswitchinterval(1e-5)
     args = argv or sys.argv[1:]
-    steps = [int(v) for v in args[0].split(",")] if args else [40, 25, 40]
+    steps = [int(v) for v in args[0].split(",")] if args else [40, 25, 40, 30]
     with tempfile.TemporaryDirectory() as folder:
         paths = []
         for k, system in enumerate(SYSTEMS):
             base = build("cpu", system)
             base.run(duration=0.12)
             rng = np.random.default_rng(11 + k)
-            base.state.velocities[:] += rng.normal(0.0, system[-1] / math.sqrt(3.0),
+            base.state.velocities[:] += rng.normal(0.0, system[8] / math.sqrt(3.0),
                                                    (base.n_particles, 3))
             path = Path(folder) / f"system{k}.npz"
             base.save_checkpoint(path)
             paths.append(path)
         alone = [run_from(p, s, n) for p, s, n in zip(paths, SYSTEMS, steps)]
+
+        def failing():
+            # a job that fails part way: its error is its result, the others go on
+            sim = build("cuda", SYSTEMS[0])
+            sim.load_checkpoint(paths[0])
+            sim.run(steps=5)
+            raise RuntimeError("a job's own error after 5 steps")
+
         ensemble = Ensemble()
         together = ensemble.run([(lambda p=p, s=s, n=n: run_from(p, s, n))
-                                 for p, s, n in zip(paths, SYSTEMS, steps)])
+                                 for p, s, n in zip(paths, SYSTEMS, steps)] + [failing])
+        print(json.dumps({"failing_job": repr(together.pop())}), flush=True)
     for system, (a, ra), res in zip(SYSTEMS, alone, together):
         if isinstance(res, BaseException):
             print(json.dumps({"system": system[0], "error": repr(res)}), flush=True)
@@ -121,7 +137,7 @@ def main(argv=None) -> int:
                           "rebuilds": [ra, rb], "time": [float(a["time"][0]), float(b["time"][0])],
                           "touching": int(a["pair_act"].sum() + a["wall_act"].sum())}), flush=True)
     s = ensemble.stats
-    print(json.dumps({"rounds": s.rounds, "batches": s.batches,
+    print(json.dumps({"rounds": s.rounds, "batches": s.batches, "groups": s.groups,
                       "most_systems_in_a_round": max(s.systems) if s.systems else 0}), flush=True)
     return 0
 

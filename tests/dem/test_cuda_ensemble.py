@@ -1,8 +1,8 @@
 """Ensembles on the cuda backend (demcal.dem.cuda.ensemble), in numba-cuda's simulator.
 
-Three systems that differ in contact parameters, particles, walls (one turning), time
-step and gravity, stepped as one ensemble, give the bits of each run alone on the cuda
-backend (``cuda_sim_ensemble.py``, in a subprocess of its own: no other test process
+Four systems that differ in contact parameters, particles, walls (one turning), time
+step, gravity and (one) contact model, stepped as one ensemble, give the bits of each run
+alone on the cuda backend (``cuda_sim_ensemble.py``, in a subprocess of its own: no other test process
 imports numba.cuda in simulator mode). The lists of each system fall due at other steps,
 so the ensemble hands systems back to their jobs one at a time and steps the rest on.
 """
@@ -34,7 +34,7 @@ def lines():
 @needs_numba_cuda
 def test_an_ensemble_gives_each_run_alone_to_the_bit(lines):
     systems = [x for x in lines if "system" in x]
-    assert len(systems) == 3
+    assert len(systems) == 4
     for x in systems:
         assert "error" not in x, x
         assert x["same_bits"], x
@@ -50,4 +50,13 @@ def test_the_systems_go_back_to_their_jobs_at_their_own_steps(lines):
     # rebuilds, and all three stepped together in some round
     assert len({x["rebuilds"][1] for x in systems}) >= 2
     assert stats["rounds"] > max(x["rebuilds"][1] for x in systems)
-    assert stats["most_systems_in_a_round"] == 3
+    # the three Hertz-Mindlin systems and the failing job's in its first rounds; the
+    # fourth system's sub-models make a group of their own
+    assert stats["most_systems_in_a_round"] == 4
+    assert stats["groups"] == 2
+
+
+@needs_numba_cuda
+def test_a_job_that_fails_is_its_own_result_and_the_others_go_on(lines):
+    (failing,) = [x for x in lines if "failing_job" in x]
+    assert failing["failing_job"] == "RuntimeError(\"a job's own error after 5 steps\")"

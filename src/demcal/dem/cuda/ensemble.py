@@ -234,12 +234,15 @@ def scatter(merged: Merged, requests: Sequence[Request]) -> None:
 
 @dataclass
 class Stats:
-    """What an ensemble did: device rounds (one merged state each), batches of steps
-    queued, and the systems stepped per round."""
+    """What an ensemble did: device rounds (one merged state per group of systems that
+    share their sub-models), batches of steps queued, the systems stepped per round and
+    the sub-model groups seen."""
 
     rounds: int = 0
     batches: int = 0
     systems: list = field(default_factory=list)
+    groups: int = 0
+    _seen: set = field(default_factory=set, repr=False)
 
 
 class Ensemble:
@@ -350,6 +353,8 @@ class Ensemble:
         for r in pending:
             groups.setdefault(tuple(int(v) for v in r.params.chosen.ids), []).append(r)
         for ids, group in groups.items():
+            self.stats._seen.add(ids)
+            self.stats.groups = len(self.stats._seen)
             self._step_group(ids, group)
 
     def _step_group(self, ids, requests: Sequence[Request]) -> None:
