@@ -1,11 +1,11 @@
 """Three systems stepped as one ensemble against each run alone, in numba-cuda's simulator.
 
 Run as a script (``NUMBA_ENABLE_CUDASIM=1``, set by tests/dem/test_cuda_ensemble.py in a
-subprocess of its own): four small beds that differ in everything an ensemble must keep
+subprocess of its own): five small beds that differ in everything an ensemble must keep
 apart (contact parameters, particle counts and kinds, walls, a wall turning at its own
-rate, the time step, gravity, and for the last the contact model) are settled on the
-CPU, stirred and checkpointed; each is then run alone on the cuda backend and the four
-together in an :class:`~demcal.dem.cuda.ensemble.Ensemble`, from the same checkpoints,
+rate, a floor moved by a function of time, the time step, gravity, and for one the
+contact model) are settled on the CPU, stirred and checkpointed; each is then run alone
+on the cuda backend and the five together in an :class:`~demcal.dem.cuda.ensemble.Ensemble`, from the same checkpoints,
 beside a fifth job that fails after 5 steps. Prints the failing job's result, then one
 JSON line per system: whether every field, list and contact history is the same to the
 bit, and the rebuilds on each side; then one line of the ensemble's rounds.
@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from demcal.dem import Simulation
-from demcal.geometry import Cylinder, Rotation, WallSet
+from demcal.geometry import Box, Cylinder, FunctionMotion, Plane, Rotation, WallSet
 from demcal.particles.insertion import BoxRegion, insert
 from demcal.particles.materials import Interaction, Material
 from demcal.particles.templates import two_sphere_paper
@@ -32,6 +32,16 @@ from cuda_sim_cases import FIELDS, SOFT, box_walls
 
 STEEL = Material(density=7800.0, shear_modulus=7.0e10, poisson_ratio=0.3,
                  yield_strength=1.0e9, name="steel")
+
+
+def shaken_box():
+    # the box's floor plane moved by a function of time: its job steps on its own (drift
+    # and forces from Python) while the others are stepped in rounds
+    walls = WallSet([Box(lower=(-0.012, -0.012, -0.001), upper=(0.012, 0.012, 0.06), material=1),
+                     Plane(point=(0, 0, 0), normal=(0, 0, 1), material=1, name="floor")])
+    walls.set_motion("floor", FunctionMotion(
+        function=lambda t: np.array([0.0, 0.0, 0.0005 * math.sin(300.0 * t)])))
+    return walls
 
 
 def turning_cylinder():
@@ -59,6 +69,8 @@ SYSTEMS = [
     ("clumps in a box, another contact model",
      Interaction(restitution=0.4, static_friction=0.5, rolling_friction=0.1), True, box_walls, 16, 10,
      None, (0.0, 0.0, -9.81), 1.0, ("hysteretic_spring", "type_a")),
+    ("spheres on a shaken floor", Interaction(restitution=0.5, static_friction=0.4, rolling_friction=0.1),
+     False, shaken_box, 20, 11, None, (0.0, 0.0, -9.81), 0.5, HM),
 ]
 
 
@@ -102,7 +114,7 @@ def main(argv=None) -> int:
     # waits, at 10 us the simulator tests run 2-3 times faster
     sys.setswitchinterval(1e-5)
     args = argv or sys.argv[1:]
-    steps = [int(v) for v in args[0].split(",")] if args else [40, 25, 40, 30]
+    steps = [int(v) for v in args[0].split(",")] if args else [40, 25, 40, 30, 20]
     with tempfile.TemporaryDirectory() as folder:
         paths = []
         for k, system in enumerate(SYSTEMS):

@@ -1,8 +1,9 @@
 """Ensembles on the cuda backend (demcal.dem.cuda.ensemble), in numba-cuda's simulator.
 
-Four systems that differ in contact parameters, particles, walls (one turning), time
-step, gravity and (one) contact model, stepped as one ensemble, give the bits of each run
-alone on the cuda backend (``cuda_sim_ensemble.py``, in a subprocess of its own: no other test process
+Five systems that differ in contact parameters, particles, walls (one turning, one
+floor moved by a function of time, whose job steps on its own), time step, gravity and
+(one) contact model, stepped as one ensemble, give the bits of each run alone on the
+cuda backend (``cuda_sim_ensemble.py``, in a subprocess of its own: no other test process
 imports numba.cuda in simulator mode). The lists of each system fall due at other steps,
 so the ensemble hands systems back to their jobs one at a time and steps the rest on.
 """
@@ -34,7 +35,7 @@ def lines():
 @needs_numba_cuda
 def test_an_ensemble_gives_each_run_alone_to_the_bit(lines):
     systems = [x for x in lines if "system" in x]
-    assert len(systems) == 4
+    assert len(systems) == 5
     for x in systems:
         assert "error" not in x, x
         assert x["same_bits"], x

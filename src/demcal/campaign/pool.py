@@ -355,9 +355,22 @@ class EnsembleExecutor:
             except (OSError, ValueError):  # it died before it got the task
                 self._lost()
 
+    def _drain(self, worker: _Worker) -> None:
+        """Take every outcome the worker has sent."""
+        try:
+            while worker.conn.poll():
+                ident, outcome = worker.conn.recv()
+                handle = self._running.pop(ident, None)
+                if handle is not None:
+                    handle.outcome = outcome
+        except (EOFError, OSError):
+            pass
+
     def _lost(self) -> None:
-        """The worker died: its runs in flight are tried again, or fail after a second death."""
+        """The worker died: the outcomes it sent before are kept; its other runs in flight
+        are tried again, or fail after a second death."""
         worker, self._worker = self._worker, None
+        self._drain(worker)
         worker.process.join(1.0)
         worker.stop(kill=True)
         death = _death(worker.process.exitcode)
@@ -379,14 +392,7 @@ class EnsembleExecutor:
             if finished or worker is None or not self._running or left <= 0:
                 return finished
             multiprocessing.connection.wait([worker.conn, worker.process.sentinel], timeout=left)
-            try:
-                while worker.conn.poll():
-                    ident, outcome = worker.conn.recv()
-                    handle = self._running.pop(ident, None)
-                    if handle is not None:
-                        handle.outcome = outcome
-            except (EOFError, OSError):
-                pass
+            self._drain(worker)
             if not worker.process.is_alive():
                 self._lost()
             self._dispatch()

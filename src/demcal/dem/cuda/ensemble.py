@@ -107,6 +107,9 @@ class Member(CudaBackend):
             super().forces(*args, **kwargs)
 
     def drift(self, *args, **kwargs) -> float:
+        # a drift from Python is a step on its own (a wall moved by a function of
+        # time): the rounds need not wait for this job until it asks for steps again
+        self.ensemble.single(self.slot)
         with self.ensemble.device:
             return super().drift(*args, **kwargs)
 
@@ -265,6 +268,7 @@ class Ensemble:
         self._cond = threading.Condition()
         self._waiting: dict[int, Request] = {}
         self._live: set[int] = set()
+        self._single: set[int] = set()
         self._next = 0
         self._closed = False
 
@@ -298,26 +302,35 @@ class Ensemble:
             self._cond.notify_all()
 
     def serve(self) -> None:
-        """Step rounds whenever every live job waits in ``steps``, until the ensemble is
-        closed and no job is live (run this in one thread while others add jobs)."""
+        """Step rounds whenever every live job waits in ``steps`` (or steps on its own,
+        see :meth:`single`), until the ensemble is closed and no job is live (run this
+        in one thread while others add jobs)."""
         while True:
             with self._cond:
-                self._cond.wait_for(lambda: (self._live and self._live <= self._waiting.keys())
+                self._cond.wait_for(lambda: (self._waiting and self._live
+                                             <= self._waiting.keys() | self._single)
                                     or (self._closed and not self._live))
                 if not self._live:
                     return
-                pending = [self._waiting[k] for k in sorted(self._live)]
-            try:
-                with self.device:
-                    self._round(pending)
-            except BaseException as exc:  # the device failed: every waiting job gets it
-                for r in pending:
-                    if r.reply is None:
-                        r.reply = exc
+                pending = [self._waiting[k] for k in sorted(self._waiting)]
+            with self.device:
+                replies = self._round(pending)
+            # the replies are handed over under the lock: a job woken by another's end
+            # must not see its reply and ask again before its request is taken away
             with self._cond:
-                for r in pending:
-                    if r.reply is not None:
+                for r, reply in replies:
+                    r.reply = reply
+                    if self._waiting.get(r.slot) is r:
                         del self._waiting[r.slot]
+                self._cond.notify_all()
+
+    def single(self, slot: int) -> None:
+        """Job ``slot`` steps on its own (``forces`` and ``drift`` from Python: a wall
+        moved by a function of time) until it next asks for ``steps``: the rounds go on
+        without waiting for it."""
+        with self._cond:
+            if slot not in self._single:
+                self._single.add(slot)
                 self._cond.notify_all()
 
     def _job(self, slot: int, job, done) -> None:
@@ -334,11 +347,13 @@ class Ensemble:
         finally:
             with self._cond:
                 self._live.discard(slot)
+                self._single.discard(slot)
                 self._cond.notify_all()
 
     def _wait(self, request: Request):
         """A member's ``steps``: wait for the rounds to answer ``request``."""
         with self._cond:
+            self._single.discard(request.slot)
             self._waiting[request.slot] = request
             self._cond.notify_all()
             self._cond.wait_for(lambda: request.reply is not None)
@@ -346,18 +361,25 @@ class Ensemble:
             raise request.reply
         return request.reply
 
-    def _round(self, pending: Sequence[Request]) -> None:
+    def _round(self, pending: Sequence[Request]) -> list:
         """Step the waiting systems, grouped by their sub-models, until some system's
-        lists fall due or its request is complete."""
+        lists fall due or its request is complete; returns ``(request, reply)`` for each
+        request answered. A group whose device step fails answers each of its requests
+        with that error; the other groups are stepped as usual."""
         groups: dict = {}
         for r in pending:
             groups.setdefault(tuple(int(v) for v in r.params.chosen.ids), []).append(r)
+        replies = []
         for ids, group in groups.items():
             self.stats._seen.add(ids)
             self.stats.groups = len(self.stats._seen)
-            self._step_group(ids, group)
+            try:
+                replies += self._step_group(ids, group)
+            except Exception as exc:  # noqa: BLE001 - the device's error, each job raises it
+                replies += [(r, exc) for r in group]
+        return replies
 
-    def _step_group(self, ids, requests: Sequence[Request]) -> None:
+    def _step_group(self, ids, requests: Sequence[Request]) -> list:
         from .kernels import common_kernels, contact_kernels
         pk, ck = common_kernels(), contact_kernels(ids)
         merged = merge(requests)
@@ -385,8 +407,10 @@ class Ensemble:
         time, travel = dev.clocks()
         dev.download(st, merged.walls)
         scatter(merged, requests)
+        replies = []
         for k, r in enumerate(requests):
             r.done += int(taken[k])
             r.time, r.travel = float(time[k]), float(travel[k])
             if raised[k] or left[k] == 0:
-                r.reply = (r.done, bool(raised[k]), r.time, r.travel)
+                replies.append((r, (r.done, bool(raised[k]), r.time, r.travel)))
+        return replies

@@ -139,6 +139,8 @@ def common_kernels():
                 bmass, binertia, bfixed, bstart, soffset, spos, sref, sdsq, mx):
         b = cuda.grid(1)
         nb = bpos.shape[0]
+        if nb == 0:
+            return
         m = 0.0
         s = 0
         if b < nb:
