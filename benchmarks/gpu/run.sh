@@ -36,6 +36,6 @@ timeout "${T_FUNNEL:-60}" python3 -m demcal bench repose-funnel --profile paper 
 [ "${CASES:-1}" = 1 ] && timeout "${T_CASES:-60}" python3 tests/dem/cuda_sim_cases.py 30 > "$OUT/cases.jsonl" 2>"$OUT/cases.err"; echo "cases exit $? at $(( $(date +%s) - t0 )) s"
 # 5. ensembles: three systems together against each alone, compiled for the device
 #    (bits), then a design's small runs alone and as one ensemble (bits and wall times)
-timeout "${T_ENSEMBLE_BITS:-60}" python3 tests/dem/cuda_sim_ensemble.py > "$OUT/ensemble-bits.jsonl" 2>"$OUT/ensemble.err"; echo "ensemble bits exit $? at $(( $(date +%s) - t0 )) s"
-timeout "${T_ENSEMBLE:-90}" python3 $here/ensemble.py "$OUT/ensemble.jsonl" --test impact --profile tiny --runs 16 2>>"$OUT/ensemble.err"; echo "ensemble exit $? at $(( $(date +%s) - t0 )) s"
+timeout "${T_ENSEMBLE_BITS:-45}" python3 tests/dem/cuda_sim_ensemble.py > "$OUT/ensemble-bits.jsonl" 2>"$OUT/ensemble.err"; echo "ensemble bits exit $? at $(( $(date +%s) - t0 )) s"
+timeout "${T_ENSEMBLE:-60}" python3 $here/ensemble.py "$OUT/ensemble.jsonl" --test impact --profile tiny --runs 8 2>>"$OUT/ensemble.err"; echo "ensemble exit $? at $(( $(date +%s) - t0 )) s"
 python3 $here/table.py "$OUT"
