@@ -9,6 +9,10 @@ from the two codes' seed spreads, sqrt(s_d^2/n_d + s_l^2/n_l); then the mean dif
 over the pairs with its standard error. Issue 42's aim: the mean within +-0.3 deg, and
 every pair's difference within two standard errors, with at least four seeds of each.
 
+Rows of ``--code demcal-fresh-history`` (demcal with every contact's history zeroed at
+the lift start, as LIGGGHTS starts) get a table of their own: how much the history that
+LIGGGHTS cannot be given moves demcal's heap.
+
 Each LIGGGHTS run starts from demcal's packing of the same seed (the harness), so the
 per-seed differences are paired as well: their mean equals the difference of the means
 where both codes have the same seeds, and their spread (``paired sd``) says how far the
@@ -92,6 +96,22 @@ def main(argv=None) -> int:
     print(f"pairs with both codes: {s['pairs']} of 6; mean difference {s['mean_difference']:+.2f} deg "
           f"(se {s['se_of_mean']:.2f}); within two se: {s['within_2se']} of {s['pairs']}; "
           f"fewest seeds of a code in a pair: {s['fewest_seeds']} (the aim needs 4)")
+    fresh = [(key, by) for key, by in sorted(angles.items()) if "demcal-fresh-history" in by]
+    if fresh:
+        print()
+        print("| mu_s / mu_r | demcal, history zeroed at the lift, by seed | its mean | demcal mean | "
+              "LIGGGHTS mean | zeroed - carried, paired |")
+        print("| --- | --- | --- | --- | --- | --- |")
+        for (mus, mur), by in fresh:
+            f, d, g = by["demcal-fresh-history"], by.get("demcal", {}), by.get("liggghts", {})
+            both = sorted(set(f) & set(d))
+            paired = np.mean([f[s] - d[s] for s in both]) if both else math.nan
+
+            def mean(x):
+                return f"{np.mean(list(x.values())):.2f}" if x else "-"
+
+            print(f"| {mus:g} / {mur:g} | {', '.join(f'{f[s]:.2f}' for s in sorted(f))} | {mean(f)} | "
+                  f"{mean(d)} | {mean(g)} | {paired:+.2f} ({len(both)} seeds) |")
     for r in failed:
         print(f"failed: {r['code']} mu_s {r['mus']:g} mu_r {r['mur']:g} seed {r['seed']}: {r.get('error')}")
     return 0

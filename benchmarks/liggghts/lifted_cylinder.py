@@ -68,6 +68,9 @@ FACET_GAP = 0.01
 #: (0.256 deg), which must be below every angle of every triangle.
 ROW_ASPECT = 50.0
 CODES = ("demcal", "liggghts")
+#: demcal with every contact's history zeroed when the lift starts, as LIGGGHTS starts from
+#: the case (its tangential springs at zero): how much the history carried moves the heap.
+FRESH = "demcal-fresh-history"
 #: The dumps' columns (``run_liggghts.read_dump`` reads the first eight) and their format:
 #: every digit, so that the start dump can be compared with the packing written.
 DUMP = "id radius x y z vx vy vz omegax omegay omegaz"
@@ -142,11 +145,13 @@ def _cylinder_wall(sim):
     return walls.walls[walls.names.index("cylinder")]
 
 
-def run_demcal(spec: Spec, seed: int, out_dir=None, log=print) -> tuple[dict, dict]:
+def run_demcal(spec: Spec, seed: int, out_dir=None, log=print, fresh: bool = False) -> tuple[dict, dict]:
     """demcal's ``repose-cylinder`` bench for ``spec`` and ``seed``, its phases run one by
     one as :meth:`BenchExperiment.run` runs them, so that the packing can be taken when
     the lift starts. Returns ``(row, case)``: the JSON row and the case (the packing and
-    what LIGGGHTS needs, :func:`run_liggghts`)."""
+    what LIGGGHTS needs, :func:`run_liggghts`). With ``fresh``, every contact's history
+    (tangential springs, touching flags) is zeroed when the lift starts, as LIGGGHTS
+    starts from the case, and the row's code is :data:`FRESH`."""
     from demcal.bench import common as C
     from demcal.bench.experiment import run_phase
 
@@ -159,6 +164,10 @@ def run_demcal(spec: Spec, seed: int, out_dir=None, log=print) -> tuple[dict, di
         # the bench's phases (repose.ReposeCylinder.build): fill and settle, lift, heap
         settle, lift, heap = setup.phases
         run_phase(setup, settle)
+        if fresh:  # every contact starts anew, as in LIGGGHTS from the data file
+            store = sim._store
+            store.pairs.hist[:] = 0.0
+            store.walls.hist[:] = 0.0
         st = sim.state  # the lift starts now: `lift.start` moves the cylinder
         packing = dict(positions=st.sphere_positions.copy(), radii=st.radii.copy(),
                        velocities=st.velocities.copy(), omegas=st.omegas.copy())
@@ -178,7 +187,7 @@ def run_demcal(spec: Spec, seed: int, out_dir=None, log=print) -> tuple[dict, di
     move_steps = int(round((motion.stop - motion.start) / dt))
     case = case_of(spec, seed, s, setup, packing, t0, step0, motion,
                    (move_steps, step1 - step0 - move_steps, sim.step_count - step1))
-    row = dict(code="demcal", mus=spec.mus, mur=spec.mur, seed=int(seed), angle_deg=r["repose_angle_deg"],
+    row = dict(code=FRESH if fresh else "demcal", mus=spec.mus, mur=spec.mur, seed=int(seed), angle_deg=r["repose_angle_deg"],
                particles=case["meta"]["particles"], wall_s=wall, simulated_s=float(sim.time),
                steps=int(sim.step_count), dt=dt, lift_start_s=float(t0),
                after_lift_s=float(sim.time - t0), after_lift_steps=int(sim.step_count - step0),
@@ -513,6 +522,18 @@ def run_one(spec: Spec, seed: int, codes, out: Path, cases: Path, binary: str, k
     a pure function of the settings and seed) and then adds no row of its own; after a
     failed demcal run LIGGGHTS has no packing to start from and is skipped."""
     base = (round(spec.mus, 6), round(spec.mur, 6), int(seed), int(spec.particles))
+    if FRESH in codes:  # demcal alone, its history zeroed at the lift; no case written
+        if (FRESH,) + base in done:
+            log(f"already in {out}")
+            return
+        try:
+            row, _ = run_demcal(spec, seed, out_dir=Path(keep, "demcal") if keep else None, log=log,
+                                fresh=True)
+        except Exception as exc:  # a bench error: recorded, the study goes on
+            log(f"demcal failed: {exc}")
+            row = failed(FRESH, spec, seed, exc)
+        append_row(out, row, done)
+        return
     d_key, l_key = ("demcal",) + base, ("liggghts",) + base
     path = case_path(cases, spec, seed)
     if done.get(d_key, {}).get("error"):
@@ -551,7 +572,9 @@ def main(argv=None) -> int:
     ap.add_argument("--plan", action="store_true", help="the six (mus, mur) pairs x --seeds seeds x both codes")
     ap.add_argument("--seeds", type=int, default=4, help="with --plan: seeds 1..N (default 4)")
     ap.add_argument("--particles", type=int, default=3000)
-    ap.add_argument("--code", choices=CODES + ("both",), default="both")
+    ap.add_argument("--code", choices=CODES + ("both", FRESH), default="both",
+                    help=f"demcal, liggghts, both, or {FRESH} (demcal with every contact's history "
+                         "zeroed when the lift starts, as LIGGGHTS starts; no LIGGGHTS run)")
     ap.add_argument("--profile", default="quick", help="the bench profile whose other defaults apply")
     ap.add_argument("--cylinder-diameter", type=float, default=None,
                     help="cylinder inner diameter [m] (default: a settled column two diameters high)")
@@ -571,7 +594,7 @@ def main(argv=None) -> int:
         if not sep:
             ap.error(f"--set {item}: write KEY=VALUE")
         extra[k.strip()] = v.strip()
-    if args.code != "demcal" and shutil.which(args.binary) is None:
+    if args.code not in ("demcal", FRESH) and shutil.which(args.binary) is None:
         ap.error(f"{args.binary} not found: install LIGGGHTS 3.8 with `apt-get update && apt-get install -y "
                  "liggghts`, or run --code demcal")
     out = Path(args.out)
