@@ -5,8 +5,9 @@ subprocess of its own): five small beds that differ in everything an ensemble mu
 apart (contact parameters, particle counts and kinds, walls, a wall turning at its own
 rate, a floor moved by a function of time, the time step, gravity, and for one the
 contact model) are settled on the CPU, stirred and checkpointed; each is then run alone
-on the cuda backend and the five together in an :class:`~demcal.dem.cuda.ensemble.Ensemble`, from the same checkpoints,
-beside a fifth job that fails after 5 steps. Prints the failing job's result, then one
+on the cuda backend (``--reference cpu``: the cpu backend) and the five together in an
+:class:`~demcal.dem.cuda.ensemble.Ensemble`, from the same checkpoints,
+beside a sixth job that fails after 5 steps. Prints the failing job's result, then one
 JSON line per system: whether every field, list and contact history is the same to the
 bit, and the rebuilds on each side; then one line of the ensemble's rounds.
 """
@@ -98,8 +99,8 @@ def snapshot(sim) -> dict:
     return out
 
 
-def run_from(path, system, steps):
-    sim = build("cuda", system)
+def run_from(path, system, steps, backend="cuda"):
+    sim = build(backend, system)
     sim.load_checkpoint(path)
     r0 = sim.rebuilds
     sim.run(steps=steps)
@@ -113,7 +114,14 @@ def main(argv=None) -> int:
     # each other at every barrier: at Python's default switch interval (5 ms) each hand-off
     # waits, at 10 us the simulator tests run 2-3 times faster
     sys.setswitchinterval(1e-5)
-    args = argv or sys.argv[1:]
+    args = list(argv or sys.argv[1:])
+    # the runs alone on the cuda backend (on a GPU), or on the cpu backend, whose bits the
+    # simulator's kernels give (tests/dem/test_cuda_backend.py): half the simulator's work
+    reference = "cuda"
+    if "--reference" in args:
+        i = args.index("--reference")
+        reference = args[i + 1]
+        del args[i:i + 2]
     steps = [int(v) for v in args[0].split(",")] if args else [40, 25, 40, 30, 20]
     with tempfile.TemporaryDirectory() as folder:
         paths = []
@@ -126,7 +134,7 @@ def main(argv=None) -> int:
             path = Path(folder) / f"system{k}.npz"
             base.save_checkpoint(path)
             paths.append(path)
-        alone = [run_from(p, s, n) for p, s, n in zip(paths, SYSTEMS, steps)]
+        alone = [run_from(p, s, n, reference) for p, s, n in zip(paths, SYSTEMS, steps)]
 
         def failing():
             # a job that fails part way: its error is its result, the others go on

@@ -2,9 +2,11 @@
 
 Five systems that differ in contact parameters, particles, walls (one turning, one
 floor moved by a function of time, whose job steps on its own), time step, gravity and
-(one) contact model, stepped as one ensemble, give the bits of each run alone on the
-cuda backend (``cuda_sim_ensemble.py``, in a subprocess of its own: no other test process
-imports numba.cuda in simulator mode). The lists of each system fall due at other steps,
+(one) contact model, stepped as one ensemble, give the bits of each run alone on the cpu
+backend, which the simulator's kernels give alone too (tests/dem/test_cuda_backend.py; on
+a GPU, benchmarks/gpu/run.sh compares with the cuda backend alone). The script is
+``cuda_sim_ensemble.py``, in a subprocess of its own: no other test process imports
+numba.cuda in simulator mode. The lists of each system fall due at other steps,
 so the ensemble hands systems back to their jobs one at a time and steps the rest on.
 """
 
@@ -26,7 +28,8 @@ HERE = Path(__file__).resolve().parent
 @pytest.fixture(scope="module")
 def lines():
     env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
-    res = subprocess.run([sys.executable, str(HERE / "cuda_sim_ensemble.py")], capture_output=True,
+    res = subprocess.run([sys.executable, str(HERE / "cuda_sim_ensemble.py"), "--reference", "cpu"],
+                         capture_output=True,
                          text=True, env=env, timeout=900)
     assert res.returncode == 0, res.stderr[-3000:]
     return [json.loads(line) for line in res.stdout.splitlines() if line.startswith("{")]
