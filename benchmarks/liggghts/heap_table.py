@@ -36,7 +36,10 @@ def load(path: Path, particles: int) -> tuple[dict, list]:
     for line in path.read_text().splitlines():
         if not line.startswith("{"):
             continue
-        r = json.loads(line)
+        try:
+            r = json.loads(line)
+        except json.JSONDecodeError:  # the last line, half written by a run that is ending
+            continue
         if r.get("particles") != particles:
             continue
         key = (r["mus"], r["mur"])
