@@ -87,10 +87,7 @@ def _local_worker(conn, parent_pid: int, threads: int, plugins: Sequence[str]) -
         if broken:
             outcome = {"ok": False, "error": broken}
         else:
-            try:
-                outcome = execute(task)
-            except BaseException as exc:  # noqa: BLE001 - execute() catches run errors; this is the rest
-                outcome = {"ok": False, "error": f"{type(exc).__name__}: {exc}", "traceback": traceback.format_exc()}
+            outcome = _safe_execute(task)
         conn.send(outcome)
 
 

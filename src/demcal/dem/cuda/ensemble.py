@@ -244,8 +244,11 @@ class Stats:
     rounds: int = 0
     batches: int = 0
     systems: list = field(default_factory=list)
-    groups: int = 0
     _seen: set = field(default_factory=set, repr=False)
+
+    @property
+    def groups(self) -> int:
+        return len(self._seen)
 
 
 class Ensemble:
@@ -372,7 +375,6 @@ class Ensemble:
         replies = []
         for ids, group in groups.items():
             self.stats._seen.add(ids)
-            self.stats.groups = len(self.stats._seen)
             try:
                 replies += self._step_group(ids, group)
             except Exception as exc:  # noqa: BLE001 - the device's error, each job raises it
