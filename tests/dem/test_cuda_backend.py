@@ -89,6 +89,21 @@ def test_the_cases_touch_every_wall_kind(cases):
     assert set().union(*(c["wall_kinds_touching"] for c in cases)) == ALL_KINDS
 
 
+@needs_numba_cuda
+def test_the_simulator_hands_a_block_one_shared_array():
+    # numba-cuda's simulator may give two threads that reach a shared array together
+    # an array each (then block_max reads memory no thread wrote: a rebuild falls due
+    # at random, and the lists above differ run to run); demcal.dem.cuda.kernels locks
+    # the allocation. The script widens the race's window so that it always happens.
+    env = dict(os.environ, NUMBA_ENABLE_CUDASIM="1")
+    res = subprocess.run([sys.executable, str(HERE / "cuda_sim_shared.py")],
+                         capture_output=True, text=True, env=env, timeout=300)
+    assert res.returncode == 0, res.stderr[-3000:]
+    out = json.loads(res.stdout)
+    assert out["locked"] and out["demcal"] == 1, out
+    assert out["simulator"] > 1, out   # the race is real where the lock is missing
+
+
 def test_a_missing_numba_cuda_is_one_sentence(monkeypatch):
     from demcal.dem.cuda import backend
     monkeypatch.setitem(sys.modules, "numba.cuda", None)

@@ -41,7 +41,10 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
+import threading
 
+import numpy as np
 from numba import config, cuda, float64
 
 from demcal.geometry.placement import place_moving
@@ -54,6 +57,50 @@ from .compile import ChosenIds, device_function
 #: Threads per block of every driver (numba-cuda's simulator runs each thread as a
 #: Python thread: small blocks keep its tests fast).
 BLOCK = 16 if config.ENABLE_CUDASIM else 128
+
+
+def _simulator_shared_arrays_locked() -> None:
+    """Make numba-cuda's simulator hand every thread of a block the same shared array.
+
+    The simulator (numba-cuda 0.30) allocates a block's ``cuda.shared.array`` when the
+    first of its threads reaches the call, keyed by the caller's file and line, with no
+    lock: two threads that reach it together may each allocate, and keep, an array of
+    their own. A reduction (:func:`block_max`) then reads slots that no thread of its
+    array wrote (an uninitialised ``np.empty``: once a rebuild falls due at a move of
+    0.01 m**2 instead of 1e-7). The odds grow with Python's thread switch rate (the
+    simulator tests run at 10 us). On a GPU the array is one per block by construction;
+    this only serialises the simulator's allocation, with its own keying.
+    """
+    from numba import types
+    from numba.cuda.simulator import kernelapi
+    from numba.np import numpy_support
+
+    shared = kernelapi.FakeCUDAShared
+    if getattr(shared.array, "demcal_locked", False):
+        return
+    inner = shared.array
+    lock = threading.Lock()
+
+    def array(self, shape, dtype, alignment=None):
+        if shape == 0 or alignment is not None:
+            return inner(self, shape, dtype, alignment)   # dynamic memory: one buffer
+        caller = sys._getframe(1)
+        key = (caller.f_code.co_filename, caller.f_lineno)
+        with lock:
+            res = self._allocations.get(key)
+            if res is None:
+                if isinstance(dtype, types.Type):
+                    dtype = numpy_support.as_dtype(dtype)
+                res = self._allocations[key] = np.empty(shape, dtype)
+        return res
+
+    array.demcal_locked = True
+    array.__wrapped__ = inner
+    shared.array = array
+
+
+if config.ENABLE_CUDASIM:
+    _simulator_shared_arrays_locked()
 
 
 def blocks(n: int) -> int:
