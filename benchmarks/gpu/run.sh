@@ -27,6 +27,11 @@ timeout "${T_SIZES:-130}" python3 $here/sizes.py "$OUT/throughput.jsonl" --backe
     --particles 1000000 4000000 100000 --steps 200 2>"$OUT/sizes.err"; echo "sizes exit $? at $(( $(date +%s) - t0 )) s"
 timeout "${T_CPU:-50}" python3 $here/sizes.py "$OUT/throughput.jsonl" --backend cpu \
     --particles 1000000 --steps 30 --threads 16 2>>"$OUT/sizes.err"; echo "cpu exit $? at $(( $(date +%s) - t0 )) s"
+# this machine's CPU is another model: the CPU engine's bits of benchmarks/bits.py, on
+# spare cores while the device runs (compare at home with a run of bits.py at the same
+# commit, docs/performance.md "The same bits for every x86-64 compile target")
+timeout "${T_BITS:-240}" python3 benchmarks/bits.py --out "$OUT/bits-cpu.json" > "$OUT/bits.log" 2>&1 &
+bits_pid=$!
 timeout "${T_CLUMPS:-60}" python3 $here/sizes.py "$OUT/throughput.jsonl" --backend cuda \
     --particles 1000000 --steps 200 --clumps 2>>"$OUT/sizes.err"; echo "clumps exit $? at $(( $(date +%s) - t0 )) s"
 # 3. the paper-profile funnel on the device: as far as it gets
@@ -38,4 +43,5 @@ timeout "${T_FUNNEL:-60}" python3 -m demcal bench repose-funnel --profile paper 
 #    (bits), then a design's small runs alone and as one ensemble (bits and wall times)
 timeout "${T_ENSEMBLE_BITS:-45}" python3 tests/dem/cuda_sim_ensemble.py > "$OUT/ensemble-bits.jsonl" 2>"$OUT/ensemble.err"; echo "ensemble bits exit $? at $(( $(date +%s) - t0 )) s"
 timeout "${T_ENSEMBLE:-60}" python3 $here/ensemble.py "$OUT/ensemble.jsonl" --test impact --profile tiny --runs 8 2>>"$OUT/ensemble.err"; echo "ensemble exit $? at $(( $(date +%s) - t0 )) s"
+wait $bits_pid; echo "bits exit $? at $(( $(date +%s) - t0 )) s"
 python3 $here/table.py "$OUT"

@@ -35,6 +35,13 @@ def main(folder) -> int:
     for r in rows(f / "ensemble.jsonl"):
         print(f"ensemble {r['test']} {r['profile']} x{r['runs']}: alone {r['alone_s']:.1f} s, together "
               f"{r['together_s']:.1f} s ({r['speedup']:.2f}x), same bits {r['same_bits']}, rounds {r['rounds']}")
+    if (f / "bits-cpu.json").exists():
+        try:
+            bits = json.loads((f / "bits-cpu.json").read_text())
+            print(f"bits.py on this CPU: {len(bits)} configurations, "
+                  f"{sum('error' in v for v in bits.values())} errors (bits-cpu.json)")
+        except ValueError:
+            print("bits.py on this CPU: bits-cpu.json unreadable (bits.log)")
     if (f / "funnel.txt").exists():
         print("funnel:", (f / "funnel.txt").read_text()[-600:].replace("\r", "\n").splitlines()[-3:])
     return 0
