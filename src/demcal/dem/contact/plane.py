@@ -10,8 +10,10 @@ from .declare import FASTMATH
 def to_tangent_plane(x, y, z, nx, ny, nz):
     """The vector ``(x, y, z)`` turned into the plane normal to the unit vector ``n``,
     keeping its length: its normal component is removed and the rest rescaled (as the
-    tangential history of LAMMPS ``granular`` and LIGGGHTS). A zero vector comes back
-    unchanged; one along ``n`` comes back as its tangential remainder, not rescaled."""
+    tangential history of LAMMPS ``granular``; LIGGGHTS 3.8's ``tangential_model_history.h``
+    removes the normal component without rescaling, so its spring shortens as a contact
+    turns). A zero vector comes back unchanged; one along ``n`` comes back as its
+    tangential remainder, not rescaled."""
     v2 = x * x + y * y + z * z
     if v2 > 0.0:
         vn = x * nx + y * ny + z * nz

@@ -2,7 +2,8 @@
 
 The history vector ``s`` [m] is kept by the caller (``hist[h, 0:3]``). Each step it is
 first rotated into the current tangent plane (its normal component removed, its length
-kept, as in LAMMPS ``granular`` and LIGGGHTS), then incremented by ``vt dt``. The force is
+kept, as in LAMMPS ``granular``; LIGGGHTS 3.8 removes the normal component after the
+increment and does not rescale), then incremented by ``vt dt``. The force is
 ``ft = -kt s + c beta sqrt(kt m*) vt`` and, if ``|ft| > mu_s Fn``, it is scaled to the
 Coulomb limit and the spring alone is set to carry it, ``s = -ft / kt`` (as LIGGGHTS'
 ``tangential_history`` drops the damping while sliding). Keeping the damping part in
